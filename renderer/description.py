@@ -1,0 +1,205 @@
+"""What the renderer sees of a scene: plain data, no pxr, no Embree.
+
+`renderer.stage_reader.read_stage()` turns a composed USD stage into a `SceneDescription`;
+`renderer.build` turns the description into Embree scenes and numba tables.  Everything
+downstream of the stage reader depends only on this module (and numpy).
+
+Conventions
+-----------
+* Matrices are float64 4x4 for **column vectors** (``p_world = M @ [x, y, z, 1]``); this is the
+  transpose of pxr's row-vector ``Gf.Matrix4d``.  Translation is ``M[:3, 3]``.
+* World space is Y-up, right-handed, in scene units (a Z-up stage is rotated to Y-up by the
+  reader; metersPerUnit is recorded, not applied).
+* A *container* is a piece of geometry that is built once (one Embree scene, one BVH): the stage
+  root's own gprims, each native prototype, each PointInstancer prototype.  Nested instancing is
+  flattened by the reader to one level: every placement of a container is one row of
+  ``SceneDescription.instances``.
+* Colours are linear RGB float.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Optional
+
+import numpy as np
+
+
+# --------------------------------------------------------------------------- geometry
+@dataclass
+class Mesh:
+    """A triangulated polygon mesh, in its container's space (gprim-to-container transform baked)."""
+    path: str                          # USD path of the gprim (prototype path for instanced ones)
+    points: np.ndarray                 # float64 (n, 3), container space
+    triangles: np.ndarray              # int32 (m, 3), counter-clockwise seen from the outside
+                                       # (leftHanded orientation and mirrored transforms already fixed)
+    normals: Optional[np.ndarray] = None   # float32 (m, 3, 3) per-corner shading normals, container space, unit
+    uvs: Optional[np.ndarray] = None       # float32 (m, 3, 2) per-corner texture coordinates (primvars:st)
+    material: int = -1                 # default material index (binding inside the container), -1 = none
+    double_sided: bool = True
+
+
+@dataclass
+class Sphere:
+    """An analytic sphere (UsdGeom.Sphere, course sphere): centre/radius in gprim space plus the
+    gprim-to-container matrix, which may be any affine map (ellipsoids are exact)."""
+    path: str
+    radius: float
+    matrix: np.ndarray                 # float64 (4, 4) gprim-to-container, column vectors
+    material: int = -1
+
+
+@dataclass
+class Container:
+    key: str                           # stable name within one read ('/', prototype path, 'PI:/path')
+    meshes: list[Mesh] = field(default_factory=list)
+    spheres: list[Sphere] = field(default_factory=list)
+
+    @property
+    def gprims(self) -> list:
+        """Gprim order used for per-gprim material sets: meshes first, then spheres."""
+        return [*self.meshes, *self.spheres]
+
+
+@dataclass
+class Instances:
+    """All placements of all containers, flattened to one level (structure of arrays).
+
+    ``matrices[i, k]`` is the container-to-world matrix of placement i at motion sample k; the
+    K samples are uniformly spaced over the camera shutter (K = 1 for a static scene).
+    ``material_sets[s]`` lists one material index per gprim of the container (``Container.gprims``
+    order), after resolving bindings on the instance prim and its ancestors; -1 = use the gprim's own
+    ``material``.  Placements with identical bindings share a set (a PointInstancer's instances
+    usually share one)."""
+    container: np.ndarray              # int32 (N,) index into SceneDescription.containers
+    matrices: np.ndarray               # float64 (N, K, 4, 4)
+    material_set: np.ndarray           # int32 (N,) index into material_sets
+    material_sets: list[tuple[int, ...]] = field(default_factory=list)
+    paths: list[str] = field(default_factory=list)   # optional: a label per placement (may be empty for PIs)
+
+    @property
+    def count(self) -> int:
+        return int(self.container.shape[0])
+
+    @property
+    def motion_steps(self) -> int:
+        return int(self.matrices.shape[1])
+
+
+# --------------------------------------------------------------------------- appearance
+# Material models.  Course models carry their exact parameters (``rtc:`` attributes on the
+# Material prim); everything else is a UsdPreviewSurface.
+LAMBERTIAN, BLINN_PHONG, MIRROR, GLAZE, BLINN_PHONG_MIRRORED, DIELECTRIC, COOL_TO_WARM, PREVIEW_SURFACE = range(8)
+MODEL_NAMES = {
+    'lambertian': LAMBERTIAN, 'blinnPhong': BLINN_PHONG, 'mirror': MIRROR, 'glaze': GLAZE,
+    'blinnPhongMirrored': BLINN_PHONG_MIRRORED, 'dielectric': DIELECTRIC, 'coolToWarm': COOL_TO_WARM,
+    'previewSurface': PREVIEW_SURFACE,
+}
+
+
+@dataclass
+class Material:
+    path: str
+    model: int = PREVIEW_SURFACE
+    diffuse: tuple = (0.18, 0.18, 0.18)     # kd / diffuseColor
+    specular: tuple = (0.0, 0.0, 0.0)       # ks / specularColor
+    exponent: float = 0.0                   # Blinn-Phong exponent (course phongExp)
+    mirror_coef: float = 0.0                # course mirrorCoef
+    roughness: float = 0.0                  # course glossy roughness / UsdPreviewSurface roughness
+    ior: float = 1.5                        # dielectric refractive index / UsdPreviewSurface ior
+    attenuation: tuple = (1.0, 1.0, 1.0)    # dielectric per-unit-distance transmittance (Beer)
+    emission: tuple = (0.0, 0.0, 0.0)       # UsdPreviewSurface emissiveColor
+    metallic: float = 0.0                   # UsdPreviewSurface
+    opacity: float = 1.0                    # UsdPreviewSurface
+    use_specular_workflow: bool = False     # UsdPreviewSurface
+    clearcoat: float = 0.0
+    clearcoat_roughness: float = 0.01
+    diffuse_texture: int = -1               # index into SceneDescription.textures (multiplies diffuse)
+    specular_texture: int = -1
+    # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
+
+
+@dataclass
+class Texture:
+    path: str                               # resolved file path
+    pixels: np.ndarray                      # float32 (h, w, c) linear (sRGB decoded where the file is sRGB)
+    wrap_s: str = 'repeat'                  # 'repeat' | 'clamp' | 'mirror' | 'black'
+    wrap_t: str = 'repeat'
+    scale: tuple = (1.0, 1.0, 1.0, 1.0)
+    bias: tuple = (0.0, 0.0, 0.0, 0.0)
+
+
+# Light types
+POINT, SPHERE, RECT, DISK, DISTANT, DOME = range(6)
+
+
+@dataclass
+class Light:
+    path: str
+    type: int
+    matrix: np.ndarray                      # float64 (4, 4) light-to-world (UsdLux local frame: emits along -Z)
+    radiance: tuple                         # linear RGB: color * intensity * 2**exposure (normalize applied,
+                                            # see below); for POINT the radiant intensity (W/sr) instead
+    radius: float = 0.0                     # SPHERE, DISK
+    width: float = 0.0                      # RECT (local X)
+    height: float = 0.0                     # RECT (local Y)
+    angle: float = 0.0                      # DISTANT: angular diameter in degrees
+    texture: int = -1                       # DOME: lat-long texture, -1 = constant colour
+    # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space
+    # area when normalize is on); a POINT light's `radiance` is its radiant intensity I, so the irradiance
+    # at distance d facing it is I / d**2.  DISTANT: irradiance E on a surface facing it.
+
+
+@dataclass
+class Camera:
+    path: str
+    matrix: np.ndarray                      # float64 (4, 4) camera-to-world (looks down local -Z, +Y up)
+    projection: str = 'perspective'         # 'perspective' | 'orthographic'
+    focal_length: float = 5.0               # scene units (USD focalLength * 0.1)
+    horizontal_aperture: float = 2.0955     # scene units (USD horizontalAperture * 0.1)
+    vertical_aperture: float = 1.5291       # scene units
+    horizontal_aperture_offset: float = 0.0
+    vertical_aperture_offset: float = 0.0
+    lens_radius: float = 0.0                # scene units; 0 = pinhole  (focal_length / (2 fStop))
+    focus_distance: float = 1.0             # scene units
+    shutter_open: float = 0.0               # time codes relative to the frame
+    shutter_close: float = 0.0
+    clip_near: float = 1e-6
+    clip_far: float = float('inf')
+    motion: Optional[np.ndarray] = None     # float64 (K, 4, 4) camera matrices over the shutter, or None
+
+
+@dataclass
+class RenderSettings:
+    width: int = 640
+    height: int = 480
+    samples_per_pixel: Optional[int] = None
+    camera_path: Optional[str] = None
+    max_depth: Optional[int] = None
+    disable_motion_blur: bool = False
+    disable_depth_of_field: bool = False
+
+
+@dataclass
+class SceneDescription:
+    source: str                             # file the stage was opened from ('<memory>' if none)
+    containers: list[Container]
+    instances: Instances
+    materials: list[Material]
+    textures: list[Texture]
+    lights: list[Light]
+    camera: Camera
+    settings: RenderSettings
+    background: tuple = (0.0, 0.0, 0.0)     # radiance of rays that escape when there is no DomeLight
+    shutter_times: tuple = (0.0,)           # the K time codes of the motion samples
+    meters_per_unit: float = 1.0
+    up_axis: str = 'Y'                      # authored up axis (the description itself is always Y-up)
+    warnings: list[str] = field(default_factory=list)
+    skipped: list[str] = field(default_factory=list)   # what could not be loaded, with reasons
+
+    # -- summaries used by `rtc info`, the benchmarks and the tests
+    def triangle_counts(self) -> tuple[int, int]:
+        """(unique triangles, instanced triangles = sum over placements)."""
+        per = np.array([sum(len(m.triangles) for m in c.meshes) for c in self.containers], np.int64)
+        unique = int(per.sum())
+        instanced = int(per[self.instances.container].sum()) if self.instances.count else 0
+        return unique, instanced
