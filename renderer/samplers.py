@@ -1,0 +1,405 @@
+"""Sample generators for the distribution ray tracer.
+
+Every camera sample is one point of the whole integrand domain (Cook, Porter, Carpenter 1984):
+pixel position, lens position, time, then per bounce a light-sample position, a light choice,
+a glossy perturbation and a Fresnel choice.  The domain is cut into **dimension pairs**; the
+integrator asks for pair ``dim`` of sample ``index`` of pixel ``pixel``:
+
+    sample_2d(sampler, seed, pixel, index, spp, dim) -> (u, v) in [0, 1)^2
+    sample_1d(sampler, seed, pixel, index, spp, dim) -> u in [0, 1)
+
+Both are pure functions of their arguments (no RNG state), so a render is bit-identical whatever
+the thread count or the order in which pixels and samples are evaluated.  All values are
+multiples of 2^-24, hence exactly representable in float32 and strictly below 1.
+
+Dimension-pair layout (``DIM_*`` constants below): pair 0 = pixel (filter offset), 1 = lens,
+2 = (time, spare 1D), then per bounce b: ``3+4b`` light position, ``4+4b`` light choice (1D),
+``5+4b`` glossy/BSDF 2D, ``6+4b`` Fresnel choice (1D).  ``bounce_dim(b, k)`` computes these.
+
+Samplers
+--------
+INDEPENDENT
+    Hashed uniform random numbers (a 32-bit integer hash of (seed, pixel, index, dim)); error
+    falls as spp^-1/2.  ``index`` may be any non-negative integer, so the sample count can be
+    extended indefinitely.
+STRATIFIED
+    Jittered sampling (Cook 1986, "Stochastic sampling in computer graphics", ACM TOG 5(1)): an
+    nx x ny grid with nx*ny = spp (the most square factorisation; a prime spp degenerates to
+    1 x spp) and one uniformly jittered sample per cell.  The pairing of cells across dimension
+    pairs is decorrelated by permuting the sample index with Kensler's hash ``permute``, seeded per
+    (seed, pixel, pair), as in pbrt's StratifiedSampler.
+CMJ
+    Correlated multi-jittered sampling (A. Kensler, "Correlated Multi-Jittered Sampling", Pixar
+    Technical Memo 13-01, 2013), the final listing with arbitrary N: a jittered grid that is also a
+    Latin hypercube (one sample per 1D row and column stratum), permuted per (seed, pixel, pair).
+SOBOL
+    Owen-scrambled Sobol' points with the hash-based nested uniform scrambling of B. Burley,
+    "Practical Hash-based Owen Scrambling", JCGT 9(4), 2020, using the improved Laine-Karras style
+    hash of N. Vegdahl ("Building a better LK hash", 2021, also used by Cycles).  Pairs 0 and 1
+    (pixel and lens) are one 4D Owen-scrambled Sobol' point (dims 0..3, shared shuffled index), so
+    depth of field, where pixel and lens couple, is stratified in 4D.  Every further pair is a
+    padded 2D Owen-scrambled Sobol' point (dims 0, 1) with its own index shuffle seeded by
+    hash(seed, pixel, pair), which decorrelates the pairs.  For spp = 2^m the 2^m points of pair 0
+    and of each padded pair form a (0, m, 2)-net; the index shuffle maps every aligned block of
+    2^m indices onto an aligned block, so passes of 2^k samples stay nets too.  The first Sobol'
+    point is never skipped and no Cranley-Patterson shift is applied (both would break the net).
+
+Sample index beyond ``spp``
+---------------------------
+* INDEPENDENT and SOBOL are sequences: ``index >= spp`` simply continues them (Sobol' stays
+  well stratified at every power-of-two prefix), so ``spp`` is ignored by them.
+* STRATIFIED and CMJ are point *sets* of size ``spp``.  ``index >= spp`` is allowed and starts a
+  fresh, independently permuted set for every block ``index // spp``: rendering 2*spp samples
+  yields two stratified sets of spp samples each (valid, but not one stratified set of 2*spp).
+  For progressive rendering with these samplers pass the final total ``spp``.
+
+All integers are handled as int64 holding unsigned 32-bit values (explicit ``& 0xFFFFFFFF``), so
+the same code gives identical results when run as plain Python (``.py_func``) and under numba.
+"""
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# --------------------------------------------------------------------------- public constants
+INDEPENDENT, STRATIFIED, CMJ, SOBOL = 0, 1, 2, 3
+SAMPLER_NAMES = {'independent': INDEPENDENT, 'stratified': STRATIFIED, 'cmj': CMJ, 'sobol': SOBOL}
+
+DIM_PIXEL = 0          # pixel position (filter importance sample)
+DIM_LENS = 1           # lens position
+DIM_TIME = 2           # (time, spare 1D)
+DIM_BOUNCE0 = 3        # first per-bounce pair
+DIMS_PER_BOUNCE = 4
+BOUNCE_LIGHT = 0       # offsets inside a bounce block
+BOUNCE_LIGHT_CHOICE = 1
+BOUNCE_BSDF = 2
+BOUNCE_FRESNEL = 3
+
+_M32 = 0xFFFFFFFF
+_INV_2_24 = 1.0 / 16777216.0
+_ONE_MINUS = 1.0 - _INV_2_24       # largest float32 below 1: clamp so that float32(u) < 1 too
+
+
+@njit(cache=True, nogil=True)
+def bounce_dim(bounce, offset):
+    """Dimension-pair number of ``offset`` (BOUNCE_*) at bounce ``bounce`` (0 = camera hit)."""
+    return DIM_BOUNCE0 + DIMS_PER_BOUNCE * bounce + offset
+
+
+# --------------------------------------------------------------------------- integer hashing
+@njit(cache=True, nogil=True)
+def mix32(x):
+    """Chris Wellons' 'lowbias32' 32-bit integer finaliser (full avalanche, bias ~0.17)."""
+    x &= _M32
+    x ^= x >> 16
+    x = (x * 0x7FEB352D) & _M32
+    x ^= x >> 15
+    x = (x * 0x846CA68B) & _M32
+    x ^= x >> 16
+    return x
+
+
+@njit(cache=True, nogil=True)
+def hash_combine(h, v):
+    """Fold the (up to 64-bit, non-negative) integer ``v`` into the 32-bit hash ``h``."""
+    v = np.int64(v)
+    h = mix32((h & _M32) ^ (v & _M32))
+    hi = (v >> 32) & _M32
+    if hi != 0:
+        h = mix32(h ^ hi ^ 0x9E3779B9)
+    return h
+
+
+@njit(cache=True, nogil=True)
+def hash3(a, b, c):
+    """32-bit hash of three integers."""
+    return hash_combine(hash_combine(mix32(np.int64(a) ^ 0x2545F491), b), c)
+
+
+@njit(cache=True, nogil=True)
+def to_unit(x):
+    """Top 24 bits of a 32-bit integer as a float in [0, 1), exact in float32."""
+    return ((x & _M32) >> 8) * _INV_2_24
+
+
+# --------------------------------------------------------------------------- Kensler 2013
+@njit(cache=True, nogil=True)
+def permute(i, l, p):
+    """Kensler 2013, listing 3: a pseudo-random permutation of [0, l) indexed by pattern ``p``,
+    evaluated at ``i`` (hash on the next power of two with cycle walking)."""
+    i &= _M32
+    p &= _M32
+    w = l - 1
+    w |= w >> 1
+    w |= w >> 2
+    w |= w >> 4
+    w |= w >> 8
+    w |= w >> 16
+    while True:
+        i ^= p
+        i = (i * 0xE170893D) & _M32
+        i ^= p >> 16
+        i ^= (i & w) >> 4
+        i ^= p >> 8
+        i = (i * 0x0929EB3F) & _M32
+        i ^= p >> 23
+        i ^= (i & w) >> 1
+        i = (i * (1 | (p >> 27))) & _M32
+        i = (i * 0x6935FA69) & _M32
+        i ^= (i & w) >> 11
+        i = (i * 0x74DCB303) & _M32
+        i ^= (i & w) >> 2
+        i = (i * 0x9E501CC3) & _M32
+        i ^= (i & w) >> 2
+        i = (i * 0xC860A3DF) & _M32
+        i &= w
+        i ^= i >> 5
+        if i < l:
+            break
+    return (i + p) % l
+
+
+@njit(cache=True, nogil=True)
+def randfloat(i, p):
+    """Kensler 2013, listing 4: hashed float in [0, 1) for index ``i`` and pattern ``p``
+    (returned with 24 bits so that it stays < 1 in float32)."""
+    i &= _M32
+    p &= _M32
+    i ^= p
+    i ^= i >> 17
+    i ^= i >> 10
+    i = (i * 0xB36534E5) & _M32
+    i ^= i >> 12
+    i ^= i >> 21
+    i = (i * 0x93FC4795) & _M32
+    i ^= 0xDF6E307F
+    i ^= i >> 17
+    i = (i * (1 | (p >> 18))) & _M32
+    return to_unit(i)
+
+
+@njit(cache=True, nogil=True)
+def cmj(s, n_samples, p):
+    """Kensler 2013, listing 6 (final CMJ, any N, aspect 1): sample ``s`` of ``n_samples`` of
+    pattern ``p``.  One sample per cell of the m x n grid (m = floor(sqrt(N)), n = ceil(N/m)) and
+    per each of the N row and column strata (Latin hypercube)."""
+    p &= _M32
+    m = np.int64(math.sqrt(n_samples))
+    while m * m > n_samples:          # guard against sqrt rounding
+        m -= 1
+    while (m + 1) * (m + 1) <= n_samples:
+        m += 1
+    n = (n_samples + m - 1) // m
+    s = permute(s, n_samples, p * 0x51633E2D)
+    sx = permute(s % m, m, p * 0x68BC21EB)
+    sy = permute(s // m, n, p * 0x02E5BE93)
+    jx = randfloat(s, p * 0x967A889B)
+    jy = randfloat(s, p * 0x368CC8B7)
+    x = (sx + (sy + jx) / n) / m
+    y = (s + jy) / n_samples
+    return min(x, _ONE_MINUS), min(y, _ONE_MINUS)
+
+
+
+# --------------------------------------------------------------------------- Sobol' + Burley 2020
+def _sobol_directions(n_dims: int = 4) -> np.ndarray:
+    """32-bit Sobol' direction numbers, dims 0 (van der Corput) .. n_dims-1, from the
+    Joe & Kuo (2008) 'new-joe-kuo-6.21201' primitive polynomials and initial m_k."""
+    # (s, a, m_1..m_s) for Joe-Kuo dimensions 2, 3, 4, 5, 6
+    table = [(1, 0, (1,)), (2, 1, (1, 3)), (3, 1, (1, 3, 1)), (3, 2, (1, 1, 1)), (4, 1, (1, 1, 3, 3))]
+    if n_dims - 1 > len(table):
+        raise ValueError('direction numbers only tabulated for %d dims' % (len(table) + 1))
+    v = np.zeros((n_dims, 32), dtype=np.int64)
+    for k in range(32):
+        v[0, k] = 1 << (31 - k)
+    for d in range(1, n_dims):
+        s, a, m_init = table[d - 1]
+        m = list(m_init)
+        for k in range(s, 32):           # m_{k+1} in 1-based terms
+            new = m[k - s] ^ (m[k - s] << s)
+            for j in range(1, s):
+                if (a >> (s - 1 - j)) & 1:
+                    new ^= m[k - j] << j
+            m.append(new)
+        for k in range(32):
+            v[d, k] = m[k] << (31 - k)
+    return v
+
+
+SOBOL_DIRECTIONS = _sobol_directions(4)
+
+
+@njit(cache=True, nogil=True)
+def sobol(index, dim):
+    """Unscrambled 32-bit Sobol' value of ``index`` in dimension ``dim`` (0..3), natural order."""
+    x = 0
+    index &= _M32
+    k = 0
+    while index != 0:
+        if index & 1:
+            x ^= SOBOL_DIRECTIONS[dim, k]
+        index >>= 1
+        k += 1
+    return x
+
+
+@njit(cache=True, nogil=True)
+def reverse_bits(x):
+    """Reverse the 32 bits of ``x``."""
+    x &= _M32
+    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
+    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
+    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
+    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
+    x = ((x >> 16) & 0x0000FFFF) | ((x & 0x0000FFFF) << 16)
+    return x & _M32
+
+
+@njit(cache=True, nogil=True)
+def laine_karras_permutation(x, seed):
+    """Owen-scrambling hash on bit-reversed integers (Burley 2020, listing 2): every output bit
+    depends only on the same and lower input bits.  Constants from Vegdahl 2021's improved hash."""
+    x &= _M32
+    seed &= _M32
+    x ^= (x * 0x3D20ADEA) & _M32
+    x = (x + seed) & _M32
+    x = (x * ((seed >> 16) | 1)) & _M32
+    x ^= (x * 0x05526C56) & _M32
+    x ^= (x * 0x53A22864) & _M32
+    return x
+
+
+@njit(cache=True, nogil=True)
+def nested_uniform_scramble(x, seed):
+    """Owen (nested uniform) scramble of a 32-bit fixed-point value (Burley 2020, listing 3)."""
+    return reverse_bits(laine_karras_permutation(reverse_bits(x), seed))
+
+
+@njit(cache=True, nogil=True)
+def _sobol_owen_2d(index, seed, d0):
+    """Dims d0, d0+1 of the Owen-scrambled Sobol' point at shuffled ``index``."""
+    x = nested_uniform_scramble(sobol(index, d0), hash_combine(seed, d0))
+    y = nested_uniform_scramble(sobol(index, d0 + 1), hash_combine(seed, d0 + 1))
+    return to_unit(x), to_unit(y)
+
+
+@njit(cache=True, nogil=True)
+def sobol_sample_2d(seed, pixel, index, dim):
+    """Pair ``dim`` of the Owen-scrambled Sobol' sample ``index``: pairs 0, 1 = one 4D point,
+    later pairs = padded 2D points with a per-(pixel, pair) index shuffle (Burley 2020, sec. 4-5)."""
+    if dim <= DIM_LENS:
+        pseed = hash3(seed, pixel, 0x5EED0001)
+        shuffled = nested_uniform_scramble(index, pseed)
+        return _sobol_owen_2d(shuffled, pseed, 2 * dim)
+    pseed = hash3(seed, pixel, dim)
+    shuffled = nested_uniform_scramble(index, pseed)
+    return _sobol_owen_2d(shuffled, pseed, 0)
+
+
+# --------------------------------------------------------------------------- other samplers
+@njit(cache=True, nogil=True)
+def independent_sample_2d(seed, pixel, index, dim):
+    """Two hashed uniform numbers for (seed, pixel, index, pair)."""
+    h = hash_combine(hash3(seed, pixel, index), dim)
+    return to_unit(mix32(h ^ 0x68E31DA4)), to_unit(mix32(h ^ 0xB5297A4D))
+
+
+@njit(cache=True, nogil=True)
+def _grid_factor(n):
+    """Most square factorisation n = nx * ny with nx <= ny; returns nx."""
+    nx = np.int64(math.sqrt(n))
+    while nx * nx > n:
+        nx -= 1
+    while (nx + 1) * (nx + 1) <= n:
+        nx += 1
+    while nx > 1 and n % nx != 0:
+        nx -= 1
+    return max(nx, 1)
+
+
+@njit(cache=True, nogil=True)
+def _pattern(seed, pixel, index, spp, dim):
+    """Kensler pattern id of the set that sample ``index`` belongs to, and its index in the set."""
+    rnd = index // spp
+    p = hash3(seed, pixel, dim)
+    if rnd != 0:
+        p = hash_combine(p, rnd)
+    return p, index - rnd * spp
+
+
+@njit(cache=True, nogil=True)
+def stratified_sample_2d(seed, pixel, index, spp, dim):
+    """Jittered nx x ny grid sample; cell order permuted per (seed, pixel, pair)."""
+    p, i = _pattern(seed, pixel, index, spp, dim)
+    nx = _grid_factor(spp)
+    ny = spp // nx
+    s = permute(i, spp, p)
+    x = (s % nx + randfloat(s, p * 0xA399D265)) / nx
+    y = (s // nx + randfloat(s, p * 0x711AD6A5)) / ny
+    return min(x, _ONE_MINUS), min(y, _ONE_MINUS)
+
+
+# --------------------------------------------------------------------------- public API
+@njit(cache=True, nogil=True)
+def sample_2d(sampler, seed, pixel, index, spp, dim):
+    """Dimension pair ``dim`` of sample ``index`` (of ``spp``) of pixel ``pixel``: (u, v) in [0,1)^2.
+
+    ``sampler`` is one of INDEPENDENT, STRATIFIED, CMJ, SOBOL; ``seed`` a 32-bit seed.
+    Deterministic: a pure function of the arguments."""
+    seed = np.int64(seed) & _M32
+    pixel = np.int64(pixel)
+    index = np.int64(index)
+    spp = max(np.int64(spp), 1)
+    dim = np.int64(dim)
+    if sampler == SOBOL:
+        return sobol_sample_2d(seed, pixel, index, dim)
+    if sampler == CMJ:
+        p, i = _pattern(seed, pixel, index, spp, dim)
+        return cmj(i, spp, p)
+    if sampler == STRATIFIED:
+        return stratified_sample_2d(seed, pixel, index, spp, dim)
+    return independent_sample_2d(seed, pixel, index, dim)
+
+
+@njit(cache=True, nogil=True)
+def sample_1d(sampler, seed, pixel, index, spp, dim):
+    """A 1D sample in [0, 1) for pair ``dim``, stratified into ``spp`` strata by every sampler
+    except INDEPENDENT.  It is the first coordinate of ``sample_2d`` for INDEPENDENT, CMJ and
+    SOBOL; for STRATIFIED it is a 1D jittered sample (spp strata instead of the grid's nx), so a
+    pair should be used either as 1D or as 2D, not both."""
+    if sampler == STRATIFIED:
+        seed = np.int64(seed) & _M32
+        spp = max(np.int64(spp), 1)
+        p, i = _pattern(seed, np.int64(pixel), np.int64(index), spp, np.int64(dim))
+        s = permute(i, spp, p)
+        return min((s + randfloat(s, p * 0x8DA6B343)) / spp, _ONE_MINUS)
+    if sampler == SOBOL:
+        # Only the first coordinate: skip the second dimension's work.
+        seed = np.int64(seed) & _M32
+        pixel = np.int64(pixel)
+        index = np.int64(index)
+        if dim <= DIM_LENS:
+            pseed = hash3(seed, pixel, 0x5EED0001)
+            d0 = 2 * dim
+        else:
+            pseed = hash3(seed, pixel, dim)
+            d0 = 0
+        shuffled = nested_uniform_scramble(index, pseed)
+        return to_unit(nested_uniform_scramble(sobol(shuffled, d0), hash_combine(pseed, d0)))
+    return sample_2d(sampler, seed, pixel, index, spp, dim)[0]
+
+
+def sampler_id(name_or_id) -> int:
+    """Map a sampler name ('sobol', ...) or id to the integer id; ValueError if unknown."""
+    if isinstance(name_or_id, str):
+        try:
+            return SAMPLER_NAMES[name_or_id.lower()]
+        except KeyError:
+            raise ValueError('unknown sampler %r (choose from %s)'
+                             % (name_or_id, ', '.join(SAMPLER_NAMES))) from None
+    i = int(name_or_id)
+    if i not in SAMPLER_NAMES.values():
+        raise ValueError('unknown sampler id %d' % i)
+    return i
