@@ -1,0 +1,403 @@
+"""ctypes binding to Embree 4 and the two-level scene build.
+
+The library is the ``libembree4`` bundled in the embreex wheel (``embreex.libs/``); embreex's own
+Python API is not used.  Facts about this build (enum values, struct layouts, instance arrays,
+motion blur) are documented and verified in ``/work/shared/embree.md``.
+
+Structure of a renderer scene
+-----------------------------
+* one **prototype scene** (one BVH) per container: ``Device.prototype_scene(meshes, spheres)``;
+  each mesh / sphere set is one geometry, geomIDs in list order, meshes first.
+* one **top scene** of instances: ``Device.top_scene(prototypes, groups)``; each
+  ``InstanceGroup`` becomes one ``RTC_GEOMETRY_TYPE_INSTANCE_ARRAY`` whose geomID is the group's
+  position in ``groups``.  A hit therefore reads: ``instID`` = group, ``instPrimID`` = row of the
+  group, ``geomID``/``primID`` = geometry / primitive inside the prototype scene.
+  Embree in this build supports one instance level only: nesting must be flattened by the caller.
+
+Ownership: every ``Device``/``Scene`` object owns one Embree reference and releases it in
+``close()`` (also via ``with`` and, as a safety net, ``__del__``).  Embree reference-counts
+internally (a scene retains its device, an instance array retains its prototype scenes), so
+closing objects in any order is safe.  Geometry data is copied into Embree-owned buffers
+(``rtcSetNewGeometryBuffer``): no numpy array has to outlive the call, and steady-state memory is
+the same as with shared buffers (measured, see ``benchmarks/RESULTS.md``).
+"""
+from __future__ import annotations
+
+import ctypes
+import glob
+import os
+from dataclasses import dataclass
+
+import embreex
+import numpy as np
+
+__all__ = [
+    "Device", "Scene", "InstanceGroup", "EmbreeError", "decompose_affine", "LIB", "LIBRARY_PATH",
+]
+
+
+def _find_library() -> str:
+    libs = os.path.join(os.path.dirname(os.path.dirname(embreex.__file__)), "embreex.libs")
+    found = glob.glob(os.path.join(libs, "libembree4-*.so.4"))
+    if not found:
+        raise ImportError(f"libembree4 not found in {libs} (is the embreex wheel installed?)")
+    return found[0]
+
+
+LIBRARY_PATH = _find_library()
+LIB = ctypes.CDLL(LIBRARY_PATH)
+
+# ----------------------------------------------------------------------------- enums (embree4 v4.4.0)
+RTC_ERROR_NONE = 0
+RTC_ERROR_UNKNOWN = 1
+RTC_ERROR_INVALID_ARGUMENT = 2
+RTC_ERROR_INVALID_OPERATION = 3
+RTC_ERROR_OUT_OF_MEMORY = 4
+RTC_ERROR_UNSUPPORTED_CPU = 5
+RTC_ERROR_CANCELLED = 6
+_ERROR_NAMES = {
+    RTC_ERROR_UNKNOWN: "RTC_ERROR_UNKNOWN", RTC_ERROR_INVALID_ARGUMENT: "RTC_ERROR_INVALID_ARGUMENT",
+    RTC_ERROR_INVALID_OPERATION: "RTC_ERROR_INVALID_OPERATION",
+    RTC_ERROR_OUT_OF_MEMORY: "RTC_ERROR_OUT_OF_MEMORY",
+    RTC_ERROR_UNSUPPORTED_CPU: "RTC_ERROR_UNSUPPORTED_CPU", RTC_ERROR_CANCELLED: "RTC_ERROR_CANCELLED",
+}
+
+RTC_GEOMETRY_TYPE_TRIANGLE = 0
+RTC_GEOMETRY_TYPE_SPHERE_POINT = 50
+RTC_GEOMETRY_TYPE_INSTANCE = 121
+RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
+
+RTC_BUFFER_TYPE_INDEX = 0
+RTC_BUFFER_TYPE_VERTEX = 1
+RTC_BUFFER_TYPE_TRANSFORM = 23
+
+RTC_FORMAT_UINT = 0x5001
+RTC_FORMAT_UINT3 = 0x5003
+RTC_FORMAT_FLOAT3 = 0x9003
+RTC_FORMAT_FLOAT4 = 0x9004
+RTC_FORMAT_FLOAT3X4_ROW_MAJOR = 0x9134
+RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR = 0x9234
+RTC_FORMAT_QUATERNION_DECOMPOSITION = 0xB001
+
+RTC_SCENE_FLAG_NONE = 0
+RTC_SCENE_FLAG_ROBUST = 4
+
+RTC_INVALID_GEOMETRY_ID = 0xFFFFFFFF
+RTC_MAX_TIME_STEP_COUNT = 129
+
+# ----------------------------------------------------------------------------- functions
+_vp, _u32, _i32, _f32, _sz = ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_float, ctypes.c_size_t
+_ERROR_FUNCTION = ctypes.CFUNCTYPE(None, _vp, _i32, ctypes.c_char_p)   # (userPtr, RTCError, const char*)
+
+
+def _declare(name, restype, argtypes):
+    fn = getattr(LIB, name)
+    fn.restype, fn.argtypes = restype, argtypes
+    return fn
+
+
+rtcNewDevice = _declare("rtcNewDevice", _vp, [ctypes.c_char_p])
+rtcReleaseDevice = _declare("rtcReleaseDevice", None, [_vp])
+rtcGetDeviceError = _declare("rtcGetDeviceError", _i32, [_vp])
+rtcSetDeviceErrorFunction = _declare("rtcSetDeviceErrorFunction", None, [_vp, _ERROR_FUNCTION, _vp])
+rtcNewScene = _declare("rtcNewScene", _vp, [_vp])
+rtcReleaseScene = _declare("rtcReleaseScene", None, [_vp])
+rtcSetSceneFlags = _declare("rtcSetSceneFlags", None, [_vp, _i32])
+rtcCommitScene = _declare("rtcCommitScene", None, [_vp])
+rtcGetSceneBounds = _declare("rtcGetSceneBounds", None, [_vp, _vp])
+rtcNewGeometry = _declare("rtcNewGeometry", _vp, [_vp, _i32])
+rtcReleaseGeometry = _declare("rtcReleaseGeometry", None, [_vp])
+rtcCommitGeometry = _declare("rtcCommitGeometry", None, [_vp])
+rtcAttachGeometryByID = _declare("rtcAttachGeometryByID", None, [_vp, _vp, _u32])
+rtcSetNewGeometryBuffer = _declare("rtcSetNewGeometryBuffer", _vp, [_vp, _i32, _u32, _i32, _sz, _sz])
+rtcSetGeometryInstancedScenes = _declare("rtcSetGeometryInstancedScenes", None, [_vp, _vp, _sz])
+rtcSetGeometryTimeStepCount = _declare("rtcSetGeometryTimeStepCount", None, [_vp, _u32])
+rtcGetGeometry = _declare("rtcGetGeometry", _vp, [_vp, _u32])
+rtcGetGeometryTransformEx = _declare("rtcGetGeometryTransformEx", None, [_vp, _u32, _f32, _i32, _vp])
+
+
+class EmbreeError(RuntimeError):
+    """An error reported by Embree (through the device error callback or rtcGetDeviceError)."""
+
+
+# ----------------------------------------------------------------------------- data
+@dataclass
+class InstanceGroup:
+    """Placements of prototypes that become ONE instance-array geometry (e.g. a PointInstancer).
+
+    proto_index: uint32 (N,)        index into the ``prototypes`` list of ``Device.top_scene``
+    transforms:  float32 (K, N, 3, 4) local-to-world ``M[:3, :4]`` (column vectors, row-major
+                 storage) at K motion time steps spread evenly over ray time [0, 1]; K = 1 = static.
+    """
+    proto_index: np.ndarray
+    transforms: np.ndarray
+
+
+def _quaternion_from_rotation(R: np.ndarray) -> np.ndarray:
+    """Unit quaternions (..., 4) as (r, i, j, k) of proper rotation matrices (..., 3, 3) (Shepperd:
+    pick the largest of 4|r|^2, 4|i|^2, ... to divide by, for accuracy everywhere)."""
+    m00, m11, m22 = R[..., 0, 0], R[..., 1, 1], R[..., 2, 2]
+    d21, d02, d10 = R[..., 2, 1] - R[..., 1, 2], R[..., 0, 2] - R[..., 2, 0], R[..., 1, 0] - R[..., 0, 1]
+    s01, s02, s12 = R[..., 0, 1] + R[..., 1, 0], R[..., 0, 2] + R[..., 2, 0], R[..., 1, 2] + R[..., 2, 1]
+    four = np.stack([1 + m00 + m11 + m22, 1 + m00 - m11 - m22, 1 - m00 + m11 - m22, 1 - m00 - m11 + m22], -1)
+    s = 2 * np.sqrt(np.maximum(four, 1e-300))          # s = 4 |q_c| for each candidate c
+    candidates = np.stack([
+        np.stack([s[..., 0] / 4, d21 / s[..., 0], d02 / s[..., 0], d10 / s[..., 0]], -1),
+        np.stack([d21 / s[..., 1], s[..., 1] / 4, s01 / s[..., 1], s02 / s[..., 1]], -1),
+        np.stack([d02 / s[..., 2], s01 / s[..., 2], s[..., 2] / 4, s12 / s[..., 2]], -1),
+        np.stack([d10 / s[..., 3], s02 / s[..., 3], s12 / s[..., 3], s[..., 3] / 4], -1),
+    ], -2)
+    best = np.argmax(four, -1)[..., None, None]
+    q = np.take_along_axis(candidates, best, -2)[..., 0, :]
+    return q / np.linalg.norm(q, axis=-1, keepdims=True)
+
+
+def decompose_affine(M: np.ndarray) -> np.ndarray:
+    """Decompose affine maps (..., 3, 4) or (..., 4, 4) (column vectors) into
+    ``RTCQuaternionDecomposition`` records (..., 16) float64, in Embree's field order::
+
+        0 scale_x  1 scale_y  2 scale_z  3 skew_xy  4 skew_xz  5 skew_yz  6 shift_x  7 shift_y
+        8 shift_z  9 quaternion_r  10 quaternion_i  11 quaternion_j  12 quaternion_k
+        13 translation_x  14 translation_y  15 translation_z
+
+    such that ``M = T(translation) . R(quaternion) . [[sx, kxy, kxz, shx], [0, sy, kyz, shy],
+    [0, 0, sz, shz]]`` (verified against rtcGetGeometryTransform).  The 3x3 part is split by a
+    QR decomposition L = R U with R a proper rotation; U's diagonal is made positive except that a
+    mirroring map (det < 0) gets a negative ``scale_z``.  The whole translation goes into T
+    (shift = 0), so Embree's interpolation rotates about the prototype's origin while its origin
+    moves linearly.  Rotations between consecutive motion steps must stay below 180 degrees
+    (slerp takes the short way).
+    """
+    M = np.asarray(M, np.float64)[..., :3, :4]
+    Q, U = np.linalg.qr(M[..., :3, :3])
+    sign = np.where(np.diagonal(U, axis1=-2, axis2=-1) < 0, -1.0, 1.0)
+    Q = Q * sign[..., None, :]                         # Q diag(sign) . diag(sign) U = L
+    U = U * sign[..., :, None]
+    mirrored = np.linalg.det(Q) < 0                    # only if det(L) < 0: move the flip into U
+    Q[..., :, 2] = np.where(mirrored[..., None], -Q[..., :, 2], Q[..., :, 2])
+    U[..., 2, :] = np.where(mirrored[..., None], -U[..., 2, :], U[..., 2, :])
+    out = np.zeros(M.shape[:-2] + (16,))
+    out[..., 0:3] = np.diagonal(U, axis1=-2, axis2=-1)
+    out[..., 3], out[..., 4], out[..., 5] = U[..., 0, 1], U[..., 0, 2], U[..., 1, 2]
+    out[..., 9:13] = _quaternion_from_rotation(Q)
+    out[..., 13:16] = M[..., :3, 3]
+    return out
+
+
+_ROTATION_EPS = 1e-5   # radians; below this, matrix lerp and slerp differ by < 1e-10 relative
+
+
+def _rotates(decomposition: np.ndarray) -> bool:
+    """True if the rotation part of (K, N, 16) time steps changes over the shutter."""
+    q = decomposition[..., 9:13]
+    cos_half = np.abs(np.sum(q[1:] * q[:1], axis=-1))
+    return bool(np.any(2 * np.arccos(np.minimum(cos_half, 1.0)) > _ROTATION_EPS))
+
+
+# ----------------------------------------------------------------------------- device and scenes
+class Device:
+    """An Embree device (``RTCDevice``), a context manager.
+
+    ``threads``: number of build/render threads Embree may use (config ``threads=N``), None =
+    all.  ``config``: further Embree config options, e.g. ``"verbose=1,max_isa=avx2"``.
+    Errors are collected by an error callback and raised as ``EmbreeError`` by ``check()``.
+    """
+
+    def __init__(self, threads: int | None = None, config: str = ""):
+        options = ([f"threads={int(threads)}"] if threads is not None else []) + ([config] if config else [])
+        self._handle = rtcNewDevice(",".join(options).encode())
+        if not self._handle:
+            code = rtcGetDeviceError(None)
+            raise EmbreeError(f"rtcNewDevice({','.join(options)!r}) failed: {_ERROR_NAMES.get(code, code)}")
+        self._errors: list[tuple[int, str]] = []
+        self._callback = _ERROR_FUNCTION(self._record_error)   # must stay alive as long as the device
+        rtcSetDeviceErrorFunction(self._handle, self._callback, None)
+
+    def _record_error(self, _user, code, message):
+        self._errors.append((code, message.decode(errors="replace") if message else ""))
+
+    @property
+    def handle(self) -> int:
+        if not self._handle:
+            raise EmbreeError("device is closed")
+        return self._handle
+
+    def check(self, what: str = "embree call") -> None:
+        """Raise ``EmbreeError`` if Embree reported an error since the last check (clears it)."""
+        code = rtcGetDeviceError(self.handle)
+        errors, self._errors = self._errors, []
+        if not errors and code != RTC_ERROR_NONE:
+            errors = [(code, "")]
+        if errors:
+            raise EmbreeError(f"{what}: " + "; ".join(f"{_ERROR_NAMES.get(c, c)}: {m}" for c, m in errors))
+
+    # -- build
+    def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],
+                        spheres: list[np.ndarray], robust: bool = True) -> Scene:
+        """One Embree scene (one BVH) holding a container's geometry.
+
+        meshes:  [(vertices float32 (n, 3), triangles uint32 (m, 3))] -> TRIANGLE geometries,
+                 geomID 0 .. len(meshes)-1.
+        spheres: [centers_radii float32 (k, 4)] -> SPHERE_POINT geometries (x, y, z, r),
+                 geomID len(meshes) + i.
+        robust:  RTC_SCENE_FLAG_ROBUST (watertight; no leaks through shared edges far from the origin).
+        Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
+        spheres p - c; u, v are the barycentric weights of v1, v2.
+        """
+        def build(scene):
+            for geom_id, (vertices, triangles) in enumerate(meshes):
+                vertices = _as_rows(vertices, np.float32, 3, "mesh vertices")
+                triangles = _as_rows(triangles, np.uint32, 3, "mesh triangles")
+                if triangles.size and triangles.max() >= len(vertices):
+                    raise ValueError(f"mesh {geom_id}: triangle index {triangles.max()} >= {len(vertices)} vertices")
+                self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_TRIANGLE, [
+                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices),
+                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, triangles)])
+            for i, centers_radii in enumerate(spheres):
+                self._attach(scene, len(meshes) + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
+                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
+                     _as_rows(centers_radii, np.float32, 4, "sphere centers_radii"))])
+            return ()
+        return self._build_scene(build, robust, "prototype scene")
+
+    def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,
+                  quaternion_motion: bool | None = None) -> Scene:
+        """The top-level scene: one INSTANCE_ARRAY geometry per group, geomID = group index.
+
+        Every group instances the whole ``prototypes`` list through an index buffer
+        (``proto_index``); transforms go to one TRANSFORM buffer per time step.
+        quaternion_motion: store moving groups' time steps as RTCQuaternionDecomposition so that
+        rotations are slerped (Embree lerps matrices element-wise, which shrinks a rotating
+        object mid-shutter).  None (default) = only for groups whose rotation changes over the
+        shutter; True/False = for all / no moving groups.  Static groups always use plain matrices.
+        """
+        handles = (ctypes.c_void_p * max(len(prototypes), 1))(*[p.handle for p in prototypes])
+
+        def build(scene):
+            for geom_id, group in enumerate(groups):
+                proto_index = np.ascontiguousarray(group.proto_index, np.uint32).reshape(-1)
+                transforms = np.asarray(group.transforms, np.float32)
+                if transforms.ndim != 4 or transforms.shape[1:] != (len(proto_index), 3, 4):
+                    raise ValueError(f"group {geom_id}: transforms must be (K, {len(proto_index)}, 3, 4), "
+                                     f"got {transforms.shape}")
+                if proto_index.size and proto_index.max() >= len(prototypes):
+                    raise ValueError(f"group {geom_id}: proto_index {proto_index.max()} >= {len(prototypes)} prototypes")
+                steps = transforms.shape[0]
+                decomposition = decompose_affine(transforms) if steps > 1 and quaternion_motion is not False else None
+                if decomposition is not None and (quaternion_motion or _rotates(decomposition)):
+                    fmt, per_step = RTC_FORMAT_QUATERNION_DECOMPOSITION, decomposition.astype(np.float32)
+                else:   # column-major 3x4: Embree's native AffineSpace layout (columns Lx, Ly, Lz, T)
+                    fmt, per_step = RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, transforms.transpose(0, 1, 3, 2).reshape(steps, -1, 12)
+                buffers = [(RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, proto_index.reshape(-1, 1))]
+                buffers += [(RTC_BUFFER_TYPE_TRANSFORM, k, fmt, np.ascontiguousarray(per_step[k])) for k in range(steps)]
+                self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY, buffers,
+                             instanced=(handles, len(prototypes)), time_steps=steps)
+            return tuple(range(len(groups)))
+        return self._build_scene(build, robust, "top scene")
+
+    def _build_scene(self, build, robust: bool, what: str) -> Scene:
+        handle = rtcNewScene(self.handle)
+        self.check(f"{what}: rtcNewScene")
+        scene = Scene(self, handle)
+        try:
+            rtcSetSceneFlags(handle, RTC_SCENE_FLAG_ROBUST if robust else RTC_SCENE_FLAG_NONE)
+            scene.group_geom_ids = build(handle)
+            rtcCommitScene(handle)
+            self.check(f"{what}: rtcCommitScene")
+        except BaseException:
+            scene.close()
+            raise
+        return scene
+
+    def _attach(self, scene, geom_id: int, geometry_type: int, buffers, instanced=None, time_steps: int = 1):
+        """Create a geometry, fill its buffers (copied into Embree-owned memory), commit it and
+        attach it to ``scene`` as ``geom_id``.  buffers: [(type, slot, format, 2-D C array)]."""
+        geometry = rtcNewGeometry(self.handle, geometry_type)
+        self.check(f"rtcNewGeometry(type {geometry_type})")
+        try:
+            if instanced is not None:
+                rtcSetGeometryInstancedScenes(geometry, ctypes.cast(instanced[0], _vp), instanced[1])
+            if time_steps != 1:     # must precede the per-time-step buffers
+                rtcSetGeometryTimeStepCount(geometry, time_steps)
+            self.check(f"geometry {geom_id}: setup")
+            for buffer_type, slot, fmt, data in buffers:
+                pointer = rtcSetNewGeometryBuffer(geometry, buffer_type, slot, fmt, data.strides[0], len(data))
+                self.check(f"geometry {geom_id}: rtcSetNewGeometryBuffer(type {buffer_type}, slot {slot})")
+                if data.nbytes:
+                    ctypes.memmove(pointer, data.ctypes.data, data.nbytes)
+            rtcCommitGeometry(geometry)
+            rtcAttachGeometryByID(scene, geometry, geom_id)
+            self.check(f"geometry {geom_id}: commit/attach")
+        finally:
+            rtcReleaseGeometry(geometry)    # the scene holds its own reference
+
+    # -- lifetime
+    def close(self) -> None:
+        """Release this object's device reference (scenes still alive keep Embree's device alive)."""
+        if getattr(self, "_handle", None):
+            rtcSetDeviceErrorFunction(self._handle, _ERROR_FUNCTION(), None)   # no calls into a dead callback
+            rtcReleaseDevice(self._handle)
+            self._handle = None
+
+    def __enter__(self) -> Device:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+
+class Scene:
+    """A committed Embree scene (``RTCScene``), owned by this object; a context manager.
+
+    handle:         the RTCScene address, to pass to the numba kernels of ``renderer.trace``.
+    group_geom_ids: top scene: the geomID of each ``InstanceGroup`` (== its index in ``groups``),
+                    so a hit's ``instID`` selects the group and ``instPrimID`` the row in it;
+                    () for a prototype scene (whose geomIDs are its meshes, then sphere sets).
+    """
+
+    def __init__(self, device: Device, handle: int):
+        self.device = device          # keeps the error callback alive while the scene exists
+        self._handle = handle
+        self.group_geom_ids: tuple[int, ...] = ()
+
+    @property
+    def handle(self) -> int:
+        if not self._handle:
+            raise EmbreeError("scene is closed")
+        return self._handle
+
+    def bounds(self) -> np.ndarray:
+        """float32 (2, 3): [lower, upper] corner of the scene's bounding box over all time steps."""
+        record = _aligned_zeros(8, np.float32, 16)   # RTCBounds: lower xyz, pad, upper xyz, pad; 16-B aligned
+        rtcGetSceneBounds(self.handle, record.ctypes.data)
+        return np.stack([record[0:3], record[4:7]])
+
+    def close(self) -> None:
+        if getattr(self, "_handle", None):
+            rtcReleaseScene(self._handle)
+            self._handle = None
+
+    def __enter__(self) -> Scene:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+
+def _as_rows(array, dtype, width: int, what: str) -> np.ndarray:
+    array = np.ascontiguousarray(array, dtype)
+    if array.ndim != 2 or array.shape[1] != width:
+        raise ValueError(f"{what} must have shape (n, {width}), got {array.shape}")
+    return array
+
+
+def _aligned_zeros(n: int, dtype, alignment: int) -> np.ndarray:
+    raw = np.zeros(n * np.dtype(dtype).itemsize + alignment, np.uint8)
+    start = -raw.ctypes.data % alignment
+    return raw[start:start + n * np.dtype(dtype).itemsize].view(dtype)
