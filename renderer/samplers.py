@@ -366,9 +366,10 @@ def sample_2d(sampler, seed, pixel, index, spp, dim):
 @njit(cache=True, nogil=True)
 def sample_1d(sampler, seed, pixel, index, spp, dim):
     """A 1D sample in [0, 1) for pair ``dim``, stratified into ``spp`` strata by every sampler
-    except INDEPENDENT.  It is the first coordinate of ``sample_2d`` for INDEPENDENT, CMJ and
-    SOBOL; for STRATIFIED it is a 1D jittered sample (spp strata instead of the grid's nx), so a
-    pair should be used either as 1D or as 2D, not both."""
+    except INDEPENDENT.  It is the first coordinate of ``sample_2d`` for INDEPENDENT and SOBOL, the
+    second for CMJ (its y is stratified into N strata even when N is not square); for STRATIFIED
+    it is a 1D jittered sample (spp strata instead of the grid's nx), so a pair should be used
+    either as 1D or as 2D, not both."""
     if sampler == STRATIFIED:
         seed = np.int64(seed) & _M32
         spp = max(np.int64(spp), 1)
@@ -388,6 +389,8 @@ def sample_1d(sampler, seed, pixel, index, spp, dim):
             d0 = 0
         shuffled = nested_uniform_scramble(index, pseed)
         return to_unit(nested_uniform_scramble(sobol(shuffled, d0), hash_combine(pseed, d0)))
+    if sampler == CMJ:
+        return sample_2d(sampler, seed, pixel, index, spp, dim)[1]
     return sample_2d(sampler, seed, pixel, index, spp, dim)[0]
 
 
