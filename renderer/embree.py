@@ -246,17 +246,17 @@ class Device:
         """
         def build(scene):
             for geom_id, (vertices, triangles) in enumerate(meshes):
-                vertices = _as_rows(vertices, np.float32, 3, "mesh vertices")
-                triangles = _as_rows(triangles, np.uint32, 3, "mesh triangles")
-                if triangles.size and triangles.max() >= len(vertices):
-                    raise ValueError(f"mesh {geom_id}: triangle index {triangles.max()} >= {len(vertices)} vertices")
+                vertices = _as_rows(vertices, 3, "mesh vertices")
+                triangles = _as_rows(triangles, 3, "mesh triangles")
+                if triangles.size and (triangles.min() < 0 or triangles.max() >= len(vertices)):
+                    raise ValueError(f"mesh {geom_id}: triangle index outside [0, {len(vertices)})")
                 self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_TRIANGLE, [
-                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, vertices),
-                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, triangles)])
+                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, np.float32, vertices),
+                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, np.uint32, triangles)])
             for i, centers_radii in enumerate(spheres):
                 self._attach(scene, len(meshes) + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
-                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4,
-                     _as_rows(centers_radii, np.float32, 4, "sphere centers_radii"))])
+                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
+                     _as_rows(centers_radii, 4, "sphere centers_radii"))])
             return ()
         return self._build_scene(build, robust, "prototype scene")
 
@@ -275,21 +275,21 @@ class Device:
 
         def build(scene):
             for geom_id, group in enumerate(groups):
-                proto_index = np.ascontiguousarray(group.proto_index, np.uint32).reshape(-1)
-                transforms = np.asarray(group.transforms, np.float32)
+                proto_index = np.asarray(group.proto_index).reshape(-1)
+                transforms = np.asarray(group.transforms)
                 if transforms.ndim != 4 or transforms.shape[1:] != (len(proto_index), 3, 4):
                     raise ValueError(f"group {geom_id}: transforms must be (K, {len(proto_index)}, 3, 4), "
                                      f"got {transforms.shape}")
-                if proto_index.size and proto_index.max() >= len(prototypes):
-                    raise ValueError(f"group {geom_id}: proto_index {proto_index.max()} >= {len(prototypes)} prototypes")
+                if proto_index.size and (proto_index.min() < 0 or proto_index.max() >= len(prototypes)):
+                    raise ValueError(f"group {geom_id}: proto_index outside [0, {len(prototypes)})")
                 steps = transforms.shape[0]
                 decomposition = decompose_affine(transforms) if steps > 1 and quaternion_motion is not False else None
                 if decomposition is not None and (quaternion_motion or _rotates(decomposition)):
-                    fmt, per_step = RTC_FORMAT_QUATERNION_DECOMPOSITION, decomposition.astype(np.float32)
+                    fmt, per_step = RTC_FORMAT_QUATERNION_DECOMPOSITION, decomposition
                 else:   # column-major 3x4: Embree's native AffineSpace layout (columns Lx, Ly, Lz, T)
-                    fmt, per_step = RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, transforms.transpose(0, 1, 3, 2).reshape(steps, -1, 12)
-                buffers = [(RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, proto_index.reshape(-1, 1))]
-                buffers += [(RTC_BUFFER_TYPE_TRANSFORM, k, fmt, np.ascontiguousarray(per_step[k])) for k in range(steps)]
+                    fmt, per_step = RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, transforms.transpose(0, 1, 3, 2)
+                buffers = [(RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32, proto_index)]
+                buffers += [(RTC_BUFFER_TYPE_TRANSFORM, k, fmt, np.float32, per_step[k]) for k in range(steps)]
                 self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY, buffers,
                              instanced=(handles, len(prototypes)), time_steps=steps)
             return tuple(range(len(groups)))
@@ -310,8 +310,10 @@ class Device:
         return scene
 
     def _attach(self, scene, geom_id: int, geometry_type: int, buffers, instanced=None, time_steps: int = 1):
-        """Create a geometry, fill its buffers (copied into Embree-owned memory), commit it and
-        attach it to ``scene`` as ``geom_id``.  buffers: [(type, slot, format, 2-D C array)]."""
+        """Create a geometry, fill its buffers, commit it and attach it to ``scene`` as ``geom_id``.
+
+        buffers: [(type, slot, format, item dtype, array (count, ...))]; each array is converted
+        and copied straight into the Embree-owned buffer (any strides: no temporary copies)."""
         geometry = rtcNewGeometry(self.handle, geometry_type)
         self.check(f"rtcNewGeometry(type {geometry_type})")
         try:
@@ -320,11 +322,13 @@ class Device:
             if time_steps != 1:     # must precede the per-time-step buffers
                 rtcSetGeometryTimeStepCount(geometry, time_steps)
             self.check(f"geometry {geom_id}: setup")
-            for buffer_type, slot, fmt, data in buffers:
-                pointer = rtcSetNewGeometryBuffer(geometry, buffer_type, slot, fmt, data.strides[0], len(data))
+            for buffer_type, slot, fmt, dtype, data in buffers:
+                item_bytes = int(np.prod(data.shape[1:], dtype=np.int64)) * np.dtype(dtype).itemsize
+                pointer = rtcSetNewGeometryBuffer(geometry, buffer_type, slot, fmt, item_bytes, len(data))
                 self.check(f"geometry {geom_id}: rtcSetNewGeometryBuffer(type {buffer_type}, slot {slot})")
-                if data.nbytes:
-                    ctypes.memmove(pointer, data.ctypes.data, data.nbytes)
+                if data.size:
+                    raw = (ctypes.c_uint8 * (item_bytes * len(data))).from_address(pointer)
+                    np.frombuffer(raw, dtype).reshape(data.shape)[...] = data
             rtcCommitGeometry(geometry)
             rtcAttachGeometryByID(scene, geometry, geom_id)
             self.check(f"geometry {geom_id}: commit/attach")
@@ -390,8 +394,8 @@ class Scene:
         self.close()
 
 
-def _as_rows(array, dtype, width: int, what: str) -> np.ndarray:
-    array = np.ascontiguousarray(array, dtype)
+def _as_rows(array, width: int, what: str) -> np.ndarray:
+    array = np.asarray(array)
     if array.ndim != 2 or array.shape[1] != width:
         raise ValueError(f"{what} must have shape (n, {width}), got {array.shape}")
     return array
