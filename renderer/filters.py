@@ -12,9 +12,9 @@ Filters (all separable, f(x, y) = f1(x) f1(y)):
 * ``box``: radius 0.5, uniform on [-0.5, 0.5)^2.
 * ``tent``: radius 1, f1(x) = 1 - |x|; exact inverse CDF.
 * ``gaussian``: sigma 0.5, truncated at radius 1.5 (3 sigma); f1(x) = exp(-x^2 / (2 sigma^2)) on
-  [-1.5, 1.5].  The truncated CDF is inverted by linear interpolation in a 1025-entry table
-  (built with bisection on ``math.erf`` at import) refined by two Newton steps on the exact CDF,
-  accurate to ~1e-12.
+  [-1.5, 1.5].  The truncated CDF is inverted by cubic Hermite interpolation of a 4097-entry
+  table of the inverse CDF (bisection on ``math.erf`` at import) and its derivative 1 / pdf,
+  polished by one Newton step on the exact CDF: accurate to ~1e-12 in u.
 """
 from __future__ import annotations
 
@@ -33,7 +33,7 @@ _SQRT2_SIGMA = math.sqrt(2.0) * GAUSS_SIGMA
 _PHI_LO = 0.5 * (1.0 + math.erf(-GAUSS_RADIUS / _SQRT2_SIGMA))
 _PHI_NORM = math.erf(GAUSS_RADIUS / _SQRT2_SIGMA)          # Phi(r/s) - Phi(-r/s)
 _PDF_NORM = 1.0 / (GAUSS_SIGMA * math.sqrt(2.0 * math.pi) * _PHI_NORM)
-_TABLE_N = 1025
+_TABLE_N = 4097
 
 
 @njit(cache=True, nogil=True)
@@ -51,37 +51,43 @@ def gaussian_pdf(x):
 
 
 def _inverse_cdf_table(n: int) -> np.ndarray:
-    table = np.empty(n)
-    for k in range(n):
-        u = k / (n - 1)
-        lo, hi = -GAUSS_RADIUS, GAUSS_RADIUS
-        for _ in range(60):
-            mid = 0.5 * (lo + hi)
-            if gaussian_cdf.py_func(mid) < u:
-                lo = mid
-            else:
-                hi = mid
-        table[k] = 0.5 * (lo + hi)
+    """x_k = CDF^-1(k / (n - 1)) by bisection (vectorised over k, ~1e-16)."""
+    u = np.arange(n) / (n - 1)
+    erf = np.frompyfunc(math.erf, 1, 1)
+    lo = np.full(n, -GAUSS_RADIUS)
+    hi = np.full(n, GAUSS_RADIUS)
+    for _ in range(56):
+        mid = 0.5 * (lo + hi)
+        below = ((0.5 * (1.0 + erf(mid / _SQRT2_SIGMA).astype(np.float64)) - _PHI_LO) / _PHI_NORM) < u
+        lo = np.where(below, mid, lo)
+        hi = np.where(below, hi, mid)
+    table = 0.5 * (lo + hi)
     table[0], table[-1] = -GAUSS_RADIUS, GAUSS_RADIUS
     return table
 
 
 GAUSS_INV_CDF = _inverse_cdf_table(_TABLE_N)
+# derivative of the inverse CDF, dx/du = 1 / pdf(x), scaled to one table step
+GAUSS_INV_CDF_SLOPE = (GAUSS_SIGMA * math.sqrt(2.0 * math.pi) * _PHI_NORM / (_TABLE_N - 1)
+                       * np.exp(GAUSS_INV_CDF ** 2 / (2.0 * GAUSS_SIGMA ** 2)))
 
 
 @njit(cache=True, nogil=True)
 def sample_gaussian_1d(u):
-    """Warp u in [0, 1) to x in [-1.5, 1.5] with the truncated Gaussian density."""
+    """Warp u in [0, 1) to x in [-1.5, 1.5] with the truncated Gaussian density: cubic Hermite
+    interpolation of the tabulated inverse CDF and its exact derivative 1 / pdf, then one Newton
+    step on the exact CDF (|CDF(x) - u| < 1e-12)."""
     t = u * (_TABLE_N - 1)
     i = min(max(np.int64(t), 0), _TABLE_N - 2)
     f = t - i
-    x = GAUSS_INV_CDF[i] * (1.0 - f) + GAUSS_INV_CDF[i + 1] * f
-    for _ in range(2):
-        pdf = gaussian_pdf(x)
-        if pdf <= 0.0:
-            break
-        x -= (gaussian_cdf(x) - u) / pdf
-        x = min(max(x, -GAUSS_RADIUS), GAUSS_RADIUS)
+    f2 = f * f
+    f3 = f2 * f
+    x = ((2.0 * f3 - 3.0 * f2 + 1.0) * GAUSS_INV_CDF[i] + (f3 - 2.0 * f2 + f) * GAUSS_INV_CDF_SLOPE[i]
+         + (3.0 * f2 - 2.0 * f3) * GAUSS_INV_CDF[i + 1] + (f3 - f2) * GAUSS_INV_CDF_SLOPE[i + 1])
+    x = min(max(x, -GAUSS_RADIUS), GAUSS_RADIUS)
+    pdf = gaussian_pdf(x)                 # one Newton step: ~1e-8 -> ~1e-13 (worst near the tails)
+    if pdf > 0.0:
+        x = min(max(x - (gaussian_cdf(x) - u) / pdf, -GAUSS_RADIUS), GAUSS_RADIUS)
     return x
 
 
