@@ -64,7 +64,6 @@ _ERROR_NAMES = {
 
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
 RTC_GEOMETRY_TYPE_SPHERE_POINT = 50
-RTC_GEOMETRY_TYPE_INSTANCE = 121
 RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 
 RTC_BUFFER_TYPE_INDEX = 0
@@ -83,7 +82,6 @@ RTC_SCENE_FLAG_NONE = 0
 RTC_SCENE_FLAG_ROBUST = 4
 
 RTC_INVALID_GEOMETRY_ID = 0xFFFFFFFF
-RTC_MAX_TIME_STEP_COUNT = 129
 
 # ----------------------------------------------------------------------------- functions
 _vp, _u32, _i32, _f32, _sz = ctypes.c_void_p, ctypes.c_uint, ctypes.c_int, ctypes.c_float, ctypes.c_size_t

@@ -8,8 +8,9 @@ at import this module registers the Embree entry points with LLVM under private 
 (``llvmlite.binding.add_symbol("rtc_emb4_rtcIntersect1", address)``) and declares them as
 ``numba.types.ExternalFunction``: compiled code then refers to the *name*, which the JIT linker
 resolves in every process - so cached kernels load.  The ``rtc_emb4_`` prefix keeps these symbols
-apart from any other Embree in the process (e.g. Mitsuba's libembree3).  Any module whose
-cached kernels use these functions must import this module first (it does, by using them).
+apart from any other Embree in the process (e.g. Mitsuba's libembree3).  A module with cached
+kernels that use these functions imports this module, which registers the symbols before numba
+links any cached code.
 Numba invalidates a cache entry only when the kernel's own source file changes: after editing the
 inline helpers below, clear the ``__pycache__/*.nbi/*.nbc`` files of kernels in other modules.
 
