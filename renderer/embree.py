@@ -207,12 +207,11 @@ class Device:
         if not self._handle:
             code = rtcGetDeviceError(None)
             raise EmbreeError(f"rtcNewDevice({','.join(options)!r}) failed: {_ERROR_NAMES.get(code, code)}")
-        self._errors: list[tuple[int, str]] = []
-        self._callback = _ERROR_FUNCTION(self._record_error)   # must stay alive as long as the device
+        errors: list[tuple[int, str]] = []       # closed over (not self): no reference cycle
+        self._errors = errors
+        self._callback = _ERROR_FUNCTION(       # must stay alive as long as the device
+            lambda _user, code, message: errors.append((code, message.decode(errors="replace") if message else "")))
         rtcSetDeviceErrorFunction(self._handle, self._callback, None)
-
-    def _record_error(self, _user, code, message):
-        self._errors.append((code, message.decode(errors="replace") if message else ""))
 
     @property
     def handle(self) -> int:
@@ -223,7 +222,8 @@ class Device:
     def check(self, what: str = "embree call") -> None:
         """Raise ``EmbreeError`` if Embree reported an error since the last check (clears it)."""
         code = rtcGetDeviceError(self.handle)
-        errors, self._errors = self._errors, []
+        errors = self._errors[:]
+        self._errors.clear()
         if not errors and code != RTC_ERROR_NONE:
             errors = [(code, "")]
         if errors:
