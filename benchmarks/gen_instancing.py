@@ -1,0 +1,116 @@
+"""Write large instancing stages for timing `renderer.stage_reader.read_stage`.
+
+    python benchmarks/gen_instancing.py native 100000 /tmp/native_1e5.usdc
+    python benchmarks/gen_instancing.py pi 1000000 /tmp/pi_1e6.usdc
+
+``native``: N instanceable Xforms (``MakeMatrixXform`` placements) referencing one of two
+prototypes in an ``over "Prototypes"`` library (the layout rtc's compiler writes); every tenth
+instance overrides its material with ``strongerThanDescendants`` so the reader has to resolve
+bindings per instance.  ``pi``: one PointInstancer with N instances of three prototypes
+(positions, ``orientationsf``, scales, an ``invisibleIds`` mask on 1% of them).
+
+The native instances are authored through the Sdf layer API, with no stage open on the layer:
+going through ``UsdGeom`` per prim would make the generator, not the reader, the slow part.
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade, Vt
+
+
+def _common(stage: Usd.Stage) -> None:
+    UsdGeom.SetStageUpAxis(stage, UsdGeom.Tokens.y)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    world = UsdGeom.Xform.Define(stage, '/World')
+    stage.SetDefaultPrim(world.GetPrim())
+    cam = UsdGeom.Camera.Define(stage, '/World/Camera')
+    cam.AddTransformOp().Set(Gf.Matrix4d().SetLookAt(Gf.Vec3d(0, 60, 160), Gf.Vec3d(0, 0, 0),
+                                                     Gf.Vec3d(0, 1, 0)).GetInverse())
+    for name, rgb in (('Red', (0.8, 0.1, 0.1)), ('Grey', (0.5, 0.5, 0.5))):
+        mat = UsdShade.Material.Define(stage, f'/World/Looks/{name}')
+        sh = UsdShade.Shader.Define(stage, f'/World/Looks/{name}/Surface')
+        sh.CreateIdAttr('UsdPreviewSurface')
+        sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*rgb))
+        mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+
+
+def _prototype_meshes(stage: Usd.Stage, root: str) -> list[str]:
+    """Two small prototypes: a tetrahedron mesh and a sphere."""
+    UsdGeom.Xform.Define(stage, f'{root}/Tet')
+    mesh = UsdGeom.Mesh.Define(stage, f'{root}/Tet/Geom')
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0), (0, 0, 1)])
+    mesh.CreateFaceVertexCountsAttr([3, 3, 3, 3])
+    mesh.CreateFaceVertexIndicesAttr([0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3])
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(
+        UsdShade.Material(stage.GetPrimAtPath('/World/Looks/Grey')))
+    UsdGeom.Xform.Define(stage, f'{root}/Ball')
+    UsdGeom.Sphere.Define(stage, f'{root}/Ball/Geom').CreateRadiusAttr(0.5)
+    return [f'{root}/Tet', f'{root}/Ball']
+
+
+def write_native(n: int, path: str) -> None:
+    stage = Usd.Stage.CreateNew(path)
+    _common(stage)
+    protos = _prototype_meshes(stage, '/Prototypes')
+    stage.GetPrimAtPath('/Prototypes').SetSpecifier(Sdf.SpecifierOver)
+    UsdGeom.Xform.Define(stage, '/World/Instances')
+    stage.GetRootLayer().Save()
+    del stage          # edit the bare layer: no stage recomposing after every change
+    layer = Sdf.Layer.FindOrOpen(path)
+    rng = np.random.default_rng(1)
+    pos = rng.uniform(-100, 100, (n, 3))
+    red = Sdf.Path('/World/Looks/Red')
+    with Sdf.ChangeBlock():
+        parent = layer.GetPrimAtPath('/World/Instances')
+        for i in range(n):
+            spec = Sdf.PrimSpec(parent, f'I{i}', Sdf.SpecifierDef, 'Xform')
+            spec.instanceable = True
+            spec.referenceList.prependedItems.append(Sdf.Reference('', protos[i % 2]))
+            op = Sdf.AttributeSpec(spec, 'xformOp:transform', Sdf.ValueTypeNames.Matrix4d)
+            op.default = Gf.Matrix4d().SetTranslate(Gf.Vec3d(*pos[i]))
+            order = Sdf.AttributeSpec(spec, 'xformOpOrder', Sdf.ValueTypeNames.TokenArray,
+                                      Sdf.VariabilityUniform)
+            order.default = Vt.TokenArray(['xformOp:transform'])
+            if i % 10 == 0:
+                spec.SetInfo('apiSchemas', Sdf.TokenListOp.Create(prependedItems=['MaterialBindingAPI']))
+                rel = Sdf.RelationshipSpec(spec, 'material:binding')
+                rel.targetPathList.explicitItems.append(red)
+                rel.SetInfo('bindMaterialAs', 'strongerThanDescendants')
+    layer.Save()
+
+
+def write_point_instancer(n: int, path: str) -> None:
+    stage = Usd.Stage.CreateNew(path)
+    _common(stage)
+    pi = UsdGeom.PointInstancer.Define(stage, '/World/Scatter')
+    protos = _prototype_meshes(stage, '/World/Scatter/Prototypes')
+    cube = UsdGeom.Cube.Define(stage, '/World/Scatter/Prototypes/Box')
+    cube.CreateSizeAttr(0.8)
+    pi.CreatePrototypesRel().SetTargets([*protos, cube.GetPath()])
+    rng = np.random.default_rng(2)
+    q = rng.normal(size=(n, 4)).astype(np.float32)
+    q /= np.linalg.norm(q, axis=1, keepdims=True)
+    pi.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(rng.integers(0, 3, n).astype(np.int32)))
+    pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(rng.uniform(-100, 100, (n, 3)).astype(np.float32)))
+    pi.CreateOrientationsfAttr(Vt.QuatfArray.FromNumpy(q))
+    pi.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(rng.uniform(0.5, 1.5, (n, 3)).astype(np.float32)))
+    pi.CreateIdsAttr(Vt.Int64Array.FromNumpy(np.arange(n, dtype=np.int64)))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array.FromNumpy(np.arange(0, n, 100, dtype=np.int64)))
+    stage.GetRootLayer().Save()
+
+
+def main(argv: list[str]) -> int:
+    if len(argv) != 4 or argv[1] not in ('native', 'pi'):
+        print(__doc__)
+        return 2
+    kind, n, path = argv[1], int(argv[2]), argv[3]
+    (write_native if kind == 'native' else write_point_instancer)(n, path)
+    print(f'wrote {path}: {n} {kind} instances')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main(sys.argv))

@@ -1,0 +1,336 @@
+"""Composed USD stage -> `SceneDescription` (the renderer's only contact with pxr).
+
+    desc = read_stage('scene.usda')                      # or an open Usd.Stage
+    desc = read_stage(path, time=12, camera_path='/World/Cam', width=320, height=240, spp=16)
+
+The work is split the way the description is: `usd_instancing` finds the containers and
+flattens the instance graph to one level of placements, `usd_geometry` converts each
+container's gprims once, `usd_materials` resolves bindings per placement (vectorised, with
+`ComputeBoundMaterials`) and loads only the textures bound materials use, `usd_lights` and
+`usd_camera` convert the rest.  This module sequences them, applies the Z-up -> Y-up rotation
+at the root placement (so it reaches every instance, light and the camera), and turns pxr
+diagnostics and unusable input into `SceneError` / `warnings`.
+
+Motion: instance transforms are sampled at K uniform times over ``[t + shutter:open,
+t + shutter:close]`` of the render camera, where K is the number of distinct authored transform
+samples in that interval including both ends (K = 1 when nothing moves, the shutter is closed
+or the settings disable motion blur).  Geometry itself is evaluated at frame time t.
+"""
+from __future__ import annotations
+
+import math
+import os
+from dataclasses import dataclass
+from typing import Optional, Union
+
+import numpy as np
+from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
+
+from renderer.description import (Container, Instances, Light, Mesh, SceneDescription, Sphere)
+from renderer.errors import SceneError
+from renderer.usd_camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
+                                 shutter)
+from renderer.usd_geometry import GeometryError, convert_gprim
+from renderer.usd_instancing import INHERIT, RENDERED, InstanceGraph, Placements
+from renderer.usd_lights import default_lights, read_light
+from renderer.usd_materials import MaterialTable
+
+MAX_LIGHTS = 10_000
+MAX_DIAGNOSTICS = 50
+
+
+def read_stage(source: Union[str, os.PathLike, Usd.Stage], *, time: Optional[float] = None,
+               camera_path: Optional[str] = None, width: Optional[int] = None,
+               height: Optional[int] = None, spp: Optional[int] = None) -> SceneDescription:
+    """Read a USD file (or an open stage) into a SceneDescription.
+
+    `time` defaults to the stage's startTimeCode; `camera_path`, `width`, `height` and `spp`
+    override the render settings.  Raises SceneError for unusable input; problems with single
+    prims become `warnings` / `skipped` entries instead."""
+    delegate = UsdUtils.CoalescingDiagnosticDelegate()
+    label = '<memory>'
+    try:
+        stage, label = _open(source)
+        desc = _Reader(stage, label, time, camera_path, width, height, spp).read()
+    except Tf.ErrorException as exc:
+        raise SceneError(f'{label}: {_first_line(exc)}') from None
+    notes = [d.commentary for d in delegate.TakeUncoalescedDiagnostics()]
+    desc.warnings[:0] = [f'USD: {n}' for n in dict.fromkeys(notes)][:MAX_DIAGNOSTICS]
+    return desc
+
+
+def _first_line(exc: Exception) -> str:
+    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
+    return lines[-1] if lines else type(exc).__name__
+
+
+def _open(source) -> tuple[Usd.Stage, str]:
+    if isinstance(source, Usd.Stage):
+        return source, source.GetRootLayer().realPath or '<memory>'
+    path = os.fspath(source)
+    if not os.path.isfile(path):
+        raise SceneError(f'{path}: no such file')
+    if Sdf.FileFormat.FindByExtension(os.path.splitext(path)[1].lstrip('.')) is None:
+        raise SceneError(f'{path}: not a USD file (unknown extension)')
+    try:
+        stage = Usd.Stage.Open(path)
+    except Tf.ErrorException as exc:
+        raise SceneError(f'{path}: cannot open: {_first_line(exc)}') from None
+    if stage is None:
+        raise SceneError(f'{path}: cannot open')
+    return stage, path
+
+
+def rotate_x(degrees: float) -> np.ndarray:
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], np.float64)
+
+
+@dataclass
+class _Shape:
+    """A converted Mesh/Sphere and what it needs for per-placement material resolution."""
+    record: Union[Mesh, Sphere]
+    binding_path: Sdf.Path          # gprim (or GeomSubset) path in the container's namespace
+    explicit: bool                  # its purpose is authored inside the container
+
+
+class _Reader:
+    def __init__(self, stage, label, time, camera_path, width, height, spp):
+        self.stage, self.label = stage, label
+        self.t = float(stage.GetStartTimeCode() if time is None else time)
+        self.tc = Usd.TimeCode(self.t)
+        self.camera_path, self.width, self.height, self.spp = camera_path, width, height, spp
+        self.warnings: list[str] = []
+        self.skipped: list[str] = []
+        self.materials = MaterialTable(self.tc, self.warn)
+
+    def warn(self, message: str) -> None:
+        self.warnings.append(message)
+
+    # ------------------------------------------------------------------ top level
+    def read(self) -> SceneDescription:
+        stage, t = self.stage, self.t
+        up = UsdGeom.GetStageUpAxis(stage)
+        up_matrix = rotate_x(-90.0) if up == UsdGeom.Tokens.z else np.eye(4)
+
+        graph = InstanceGraph(stage, self.tc, self.warn)
+        graph.build()
+        self.skipped += graph.skipped
+
+        settings_prim = render_settings_prim(stage, graph.settings)
+        settings, background, policy = read_render_settings(settings_prim, self.tc)
+        if self.camera_path:
+            settings.camera_path = self.camera_path
+        settings.width = self.width or settings.width
+        settings.height = self.height or settings.height
+        settings.samples_per_pixel = self.spp or settings.samples_per_pixel
+        camera_prim = self._camera_prim(settings.camera_path, graph.cameras)
+        settings.camera_path = str(camera_prim.GetPath()) if camera_prim else None
+
+        open_close = (0.0, 0.0) if settings.disable_motion_blur else shutter(camera_prim, self.tc)
+        times = graph.sample_times(t, open_close, [camera_prim] if camera_prim else [])
+        if len(times) > 1:                                     # uniform steps for Embree
+            times = list(np.linspace(times[0], times[-1], len(times)))
+        graph.evaluate(times)
+        graph.split_moving_gprims()
+        placed = graph.flatten(np.broadcast_to(up_matrix, (len(times), 4, 4)))
+
+        containers, instances = self._instances(graph, placed)
+        frame = int(np.argmin(np.abs(np.asarray(times) - t)))
+        lights = self._lights(graph, placed, frame, up)
+
+        desc = SceneDescription(source=self.label, containers=containers, instances=instances,
+                                materials=self.materials.materials, textures=self.materials.textures,
+                                lights=lights, camera=None, settings=settings, background=background,
+                                shutter_times=tuple(float(x) for x in times),
+                                meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
+                                up_axis='Z' if up == UsdGeom.Tokens.z else 'Y',
+                                warnings=self.warnings, skipped=self.skipped)
+        lo, hi = scene_bounds(desc)
+        if camera_prim is not None:
+            world = [up_matrix @ _camera_world(camera_prim, x) for x in times]
+            motion = np.stack(world) if len(times) > 1 and any(np.any(w != world[0]) for w in world) else None
+            desc.camera = read_camera(camera_prim, up_matrix @ _camera_world(camera_prim, t), motion, self.tc,
+                                      settings, policy, float(np.linalg.norm(hi - lo)),
+                                      desc.meters_per_unit, self.warn)
+        else:
+            desc.camera = default_camera(lo, hi, settings, policy)
+            self.warn('no camera in the stage: using a default camera framing the scene bounds')
+        if not lights:
+            desc.lights = default_lights(desc.camera.matrix)
+            self.warn('no lights in the stage: added a default DistantLight headlight along the view '
+                      'direction (irradiance 3) and a dim constant DomeLight (radiance 0.1)')
+        _collapse_static_motion(desc)
+        return desc
+
+    def _camera_prim(self, requested: Optional[str], found: list) -> Optional[Usd.Prim]:
+        if requested:
+            prim = self.stage.GetPrimAtPath(requested) if Sdf.Path.IsValidPathString(requested) else None
+            if prim and prim.IsA(UsdGeom.Camera):
+                return prim
+            if self.camera_path:                         # asked for explicitly by the caller
+                raise SceneError(f'{self.label}: {requested} is not a camera')
+            self.warn(f'render settings camera {requested} is not a camera; ignored')
+        return found[0] if found else None
+
+    # ------------------------------------------------------------------ geometry + instances
+    def _shapes(self, graph: InstanceGraph, n: int) -> list[_Shape]:
+        node, shapes = graph.nodes[n], []
+        for (prim, purpose), rel in zip(node.gprims, node.gprim_xf):
+            try:
+                records = convert_gprim(prim, rel[0], self.tc, self.warn)
+            except GeometryError as exc:
+                self.skipped.append(str(exc))
+                continue
+            shapes += [_Shape(r, Sdf.Path(r.path), purpose != INHERIT) for r in records]
+        # Container.gprims order: meshes first, then spheres
+        return sorted(shapes, key=lambda s: isinstance(s.record, Sphere))
+
+    def _instances(self, graph: InstanceGraph, placed: dict[int, Placements]):
+        """Containers (one per placed node and purpose variant that has geometry) and the
+        flattened Instances, with material sets resolved per namespace map."""
+        shapes = {n: self._shapes(graph, n) for n in placed if graph.nodes[n].gprims}
+        rows = []                        # (node, variant, matrices, map ids, labels)
+        for n, shp in shapes.items():
+            if not shp:
+                continue
+            acc = placed[n]
+            matrices = np.concatenate(acc.matrices)
+            purpose, maps = np.concatenate(acc.purpose), np.concatenate(acc.maps)
+            labels = [x for part in acc.labels for x in part]
+            ok = _regular(matrices)
+            if not ok.all():
+                self.warn(f'{graph.nodes[n].key}: {int((~ok).sum())} placements with singular or '
+                          'non-finite matrices dropped')
+            for variant, sel in (('', np.isin(purpose, RENDERED) & ok), ('#explicit', ~np.isin(purpose, RENDERED) & ok)):
+                subset = [s for s in shp if variant == '' or s.explicit]
+                if sel.any() and subset:
+                    idx = np.flatnonzero(sel)
+                    rows.append((n, variant, subset, matrices[idx], maps[idx], [labels[i] for i in idx]))
+        sets = self._material_sets(graph, rows)
+
+        containers, parts = [], []
+        set_index: dict[tuple, int] = {}
+        for (n, variant, subset, matrices, maps, labels) in rows:
+            containers.append(Container(key=graph.nodes[n].key + variant,
+                                        meshes=[s.record for s in subset if isinstance(s.record, Mesh)],
+                                        spheres=[s.record for s in subset if isinstance(s.record, Sphere)]))
+            unique, inverse = np.unique(maps, return_inverse=True)
+            ids = np.array([set_index.setdefault(sets[(n, variant, int(u))], len(set_index)) for u in unique],
+                           np.int32)
+            parts.append((np.full(len(matrices), len(containers) - 1, np.int32), matrices, ids[inverse], labels))
+        k = len(next(iter(placed.values())).matrices[0][0]) if placed else 1
+        instances = Instances(
+            container=np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int32),
+            matrices=np.concatenate([p[1] for p in parts]) if parts else np.zeros((0, k, 4, 4)),
+            material_set=np.concatenate([p[2] for p in parts]) if parts else np.zeros(0, np.int32),
+            material_sets=list(set_index), paths=[x for p in parts for x in p[3]])
+        return containers, instances
+
+    def _material_sets(self, graph: InstanceGraph, rows) -> dict[tuple, tuple]:
+        """Material index per shape for each (node, variant, namespace map) in use.
+
+        Shapes resolve on their own prims (the container's default); placements whose map is
+        marked as needing resolution resolve on the composed-stage paths (instance proxies), all
+        in one `ComputeBoundMaterials` call."""
+        queries: list[tuple] = []                           # (node, map id or None, shape index)
+        prims: list[Usd.Prim] = []
+        seen = set()
+        for (n, variant, subset, _, maps, _) in rows:
+            for mi in [None] + [int(u) for u in np.unique(maps) if graph.maps[int(u)][2]]:
+                for s in subset:
+                    key = (n, mi, s.binding_path)
+                    if key in seen:
+                        continue
+                    seen.add(key)
+                    path = s.binding_path if mi is None else graph._map_path(mi, s.binding_path)
+                    prim = self.stage.GetPrimAtPath(path)
+                    if prim:
+                        queries.append(key)
+                        prims.append(prim)
+        bound, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(prims, UsdShade.Tokens.full) \
+            if prims else ([], [])
+        index = {}
+        for key, prim, mat in zip(queries, prims, bound):
+            found = self.materials.bound(mat) if mat else None
+            index[key] = found if found is not None else self.materials.fallback(prim)
+        for (n, variant, subset, _, _, _) in rows:
+            for s in subset:
+                s.record.material = index.get((n, None, s.binding_path), self.materials.fallback(
+                    self.stage.GetPrimAtPath(s.binding_path)))
+        sets = {}
+        for (n, variant, subset, _, maps, _) in rows:
+            for u in np.unique(maps):
+                mi = int(u)
+                sets[(n, variant, mi)] = tuple(
+                    index.get((n, mi, s.binding_path), s.record.material) for s in subset)
+        return sets
+
+    # ------------------------------------------------------------------ lights
+    def _lights(self, graph: InstanceGraph, placed: dict[int, Placements], frame: int, up: str) -> list[Light]:
+        """Every light of every placed container, at each of its placements (frame-time sample)."""
+        lights = []
+        for n, acc in placed.items():
+            node = graph.nodes[n]
+            if not node.lights:
+                continue
+            world = np.concatenate(acc.matrices)[:, frame]
+            if len(world) * len(node.lights) + len(lights) > MAX_LIGHTS:
+                self.warn(f'{node.key}: more than {MAX_LIGHTS} light placements; the rest are ignored')
+                break
+            for prim, rel in zip(node.lights, node.light_xf):
+                for w in world:
+                    light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
+                    if light is not None:
+                        lights.append(light)
+        return lights
+
+    def _dome_texture(self, asset, owner: str) -> int:
+        return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner)
+
+
+def _camera_world(prim: Usd.Prim, time: float) -> np.ndarray:
+    m = UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode(time))
+    return np.array(m).T
+
+
+def _regular(matrices: np.ndarray) -> np.ndarray:
+    """Placements whose matrices are finite and invertible at every motion sample: the 3x3
+    determinant is not negligible against the product of the axis lengths (a collapsed axis)."""
+    lin = matrices[..., :3, :3]
+    finite = np.all(np.isfinite(matrices), axis=(1, 2, 3))
+    lin = np.where(finite[:, None, None, None], lin, 0.0)
+    det = np.abs(np.linalg.det(lin))
+    norms = np.prod(np.linalg.norm(lin, axis=-2), axis=-1)
+    return finite & np.all((norms > 0) & (det > 1e-9 * norms), axis=1)
+
+
+def _collapse_static_motion(desc: SceneDescription) -> None:
+    """K > 1 samples that turned out identical everywhere (authored but constant) -> K = 1."""
+    m = desc.instances.matrices
+    if m.shape[1] < 2 or np.any(m != m[:, :1]) or desc.camera.motion is not None:
+        return
+    desc.instances.matrices = np.ascontiguousarray(m[:, :1])
+    desc.shutter_times = desc.shutter_times[:1]
+
+
+def scene_bounds(desc: SceneDescription) -> tuple[np.ndarray, np.ndarray]:
+    """World-space axis-aligned bounds of all placed geometry at the first motion sample
+    (inverted infinite box when there is none)."""
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    inst = desc.instances
+    for c, container in enumerate(desc.containers):
+        boxes = [(m.points.min(axis=0), m.points.max(axis=0)) for m in container.meshes]
+        boxes += [(s.matrix[:3, 3] - s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1),
+                   s.matrix[:3, 3] + s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1))
+                  for s in container.spheres]
+        if not boxes:
+            continue
+        box_lo, box_hi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)
+        centre, half = (box_lo + box_hi) / 2, (box_hi - box_lo) / 2
+        world = inst.matrices[inst.container == c, 0]
+        wc = world[:, :3, :3] @ centre + world[:, :3, 3]
+        wh = np.abs(world[:, :3, :3]) @ half
+        if len(wc):
+            lo, hi = np.minimum(lo, (wc - wh).min(axis=0)), np.maximum(hi, (wc + wh).max(axis=0))
+    return lo, hi

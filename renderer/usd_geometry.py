@@ -1,0 +1,395 @@
+"""UsdGeom gprims -> `Mesh` / `Sphere` records in their container's space.
+
+Every converter receives the gprim-to-container matrix (float64 4x4, column vectors) and bakes
+it: points are transformed, normals use the inverse transpose, and triangles are re-wound so
+that they are counter-clockwise seen from the outside after `orientation = "leftHanded"` and
+after a mirroring (negative-determinant) transform (the two cancel).  Spheres stay analytic and
+keep the matrix.
+
+Shading normals: authored ``primvars:normals`` (preferred, as in UsdGeom) or ``normals`` with any
+interpolation, indexed or not.  Without authored normals a polygonal mesh (subdivisionScheme
+``none`` or ``bilinear``) gets ``normals=None`` (the integrator uses the flat geometric normal);
+a subdivision surface (``catmullClark``, ``loop``, the schema fallback) is not subdivided but gets
+smooth area-weighted vertex normals, which is what its limit surface looks like from afar.
+
+Quadrics (Cube, Cylinder, Cone, Capsule, Plane and their ``_1`` variants) are tessellated in
+gprim space with exact per-corner normals (flat for cube faces and caps, smooth around the
+axis) and simple UVs, then go through the same path as meshes.
+
+A `materialBind` GeomSubset family splits a mesh into several `Mesh` records whose ``path`` is
+the subset's path, so the reader resolves each part's binding on the subset prim.
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from pxr import Sdf, Usd, UsdGeom
+
+from renderer.description import Mesh, Sphere
+
+Warn = Callable[[str], None]
+SEGMENTS = 48            # tessellation of quadrics around their axis
+RINGS = 12               # latitude rings per capsule hemisphere
+MATERIAL_BIND_FAMILY = 'materialBind'
+
+
+class GeometryError(Exception):
+    """One gprim cannot be converted (bad topology, non-finite values, degenerate size);
+    the reader drops that gprim and records the message in `SceneDescription.skipped`."""
+
+
+# --------------------------------------------------------------------------- public entry points
+def converter_for(type_name: str):
+    """The converter for a gprim type name, or None when the type is not renderable here."""
+    return _CONVERTERS.get(type_name)
+
+
+def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn: Warn) -> list:
+    """Mesh/Sphere records for one gprim.  Raises GeometryError (or KeyError for an unknown
+    type, which callers prevent by asking `converter_for` first)."""
+    if not np.all(np.isfinite(to_container)):
+        raise GeometryError(f'{prim.GetPath()}: non-finite transform')
+    if abs(np.linalg.det(to_container[:3, :3])) < 1e-300:
+        raise GeometryError(f'{prim.GetPath()}: singular transform')
+    return _CONVERTERS[prim.GetTypeName()](prim, to_container, time, warn)
+
+
+# --------------------------------------------------------------------------- meshes
+def _fan(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Fan triangulation of polygons given their vertex counts, vectorised.
+
+    Returns (face index per triangle (m,), corner indices into faceVertexIndices (m, 3)).
+    Polygons with fewer than 3 vertices produce no triangles."""
+    ntri = np.where(counts >= 3, counts - 2, 0)
+    starts = np.concatenate(([0], np.cumsum(counts)[:-1]))
+    face = np.repeat(np.arange(len(counts)), ntri)
+    first = np.repeat(starts, ntri)
+    j = np.arange(int(ntri.sum())) - np.repeat(np.cumsum(ntri) - ntri, ntri)
+    return face, np.stack([first, first + j + 1, first + j + 2], axis=1)
+
+
+def _per_corner(values, interpolation: str, face: np.ndarray, corner: np.ndarray,
+                vertex_of_corner: np.ndarray, n_points: int, n_faces: int) -> np.ndarray | None:
+    """Expand a (flattened) primvar to per-triangle-corner values (m, 3, k); None if its length
+    does not match its interpolation."""
+    v = np.asarray(values, np.float64)
+    if v.ndim == 1:
+        v = v[:, None]
+    n = len(v)
+    if interpolation == UsdGeom.Tokens.constant and n >= 1:
+        return np.broadcast_to(v[0], (len(face), 3, v.shape[1])).copy()
+    if interpolation == UsdGeom.Tokens.uniform and n == n_faces:
+        return np.repeat(v[face][:, None, :], 3, axis=1)
+    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying) and n >= n_points:
+        return v[vertex_of_corner[corner]]
+    if interpolation == UsdGeom.Tokens.faceVarying and n == len(vertex_of_corner):
+        return v[corner]
+    return None
+
+
+def _authored_normals(mesh: UsdGeom.Mesh, time):
+    """(values, interpolation) of primvars:normals if authored, else of `normals`, else None."""
+    pv = UsdGeom.PrimvarsAPI(mesh).GetPrimvar('normals')
+    if pv and pv.HasAuthoredValue():
+        return pv.ComputeFlattened(time), pv.GetInterpolation()
+    attr = mesh.GetNormalsAttr()
+    if attr.HasAuthoredValue():
+        return attr.Get(time), mesh.GetNormalsInterpolation()
+    return None
+
+
+def uv_primvar(prim: Usd.Prim):
+    """The texture-coordinate primvar: `st`, else `UVMap` (Blender), else the first
+    texCoord2f[] primvar."""
+    api = UsdGeom.PrimvarsAPI(prim)
+    for name in ('st', 'UVMap'):
+        pv = api.GetPrimvar(name)
+        if pv and pv.HasAuthoredValue():
+            return pv
+    for pv in api.GetPrimvarsWithAuthoredValues():
+        if pv.GetTypeName() == Sdf.ValueTypeNames.TexCoord2fArray:
+            return pv
+    return None
+
+
+def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
+    mesh = UsdGeom.Mesh(prim)
+    path = str(prim.GetPath())
+    points = np.asarray(mesh.GetPointsAttr().Get(time) or [], np.float64).reshape(-1, 3)
+    counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(time) or [], np.int64)
+    indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(time) or [], np.int64)
+    if len(points) == 0 or len(counts) == 0:
+        raise GeometryError(f'{path}: empty mesh')
+    if counts.sum() != len(indices) or np.any(counts < 0):
+        raise GeometryError(f'{path}: faceVertexCounts do not add up to faceVertexIndices')
+    if len(indices) and (indices.min() < 0 or indices.max() >= len(points)):
+        raise GeometryError(f'{path}: faceVertexIndices out of range')
+    if not np.all(np.isfinite(points)):
+        raise GeometryError(f'{path}: non-finite points')
+
+    face, corner = _fan(counts)
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get(time) or [], np.int64)
+    if len(holes):
+        keep = ~np.isin(face, holes)
+        face, corner = face[keep], corner[keep]
+    if len(face) == 0:
+        raise GeometryError(f'{path}: no faces with 3 or more vertices')
+    left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
+    if left:
+        corner = corner[:, [0, 2, 1]]
+
+    normals = None
+    authored = _authored_normals(mesh, time)
+    if authored is not None:
+        normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
+        if normals is None:
+            warn(f'{path}: {len(authored[0])} normals do not match interpolation '
+                 f'"{authored[1]}"; normals ignored')
+    uvs = None
+    st = uv_primvar(prim)
+    if st is not None:
+        uvs = _per_corner(st.ComputeFlattened(time), st.GetInterpolation(), face, corner, indices,
+                          len(points), len(counts))
+        if uvs is None:
+            warn(f'{path}: primvar {st.GetPrimvarName()} does not match interpolation '
+                 f'"{st.GetInterpolation()}"; texture coordinates ignored')
+    smooth = normals is None and mesh.GetSubdivisionSchemeAttr().Get(time) not in (
+        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear)
+    whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim))
+
+    # split by materialBind subsets: one record per subset (+ the faces in none of them)
+    subsets = UsdGeom.Subset.GetGeomSubsets(mesh, UsdGeom.Tokens.face, MATERIAL_BIND_FAMILY)
+    if not subsets:
+        return [whole]
+    owner = np.full(len(face), -1)
+    for k, subset in enumerate(subsets):
+        owner[np.isin(face, np.asarray(subset.GetIndicesAttr().Get(time) or [], np.int64))] = k
+    parts = []
+    for k in range(-1, len(subsets)):
+        sel = owner == k
+        if sel.any():
+            parts.append(Mesh(path if k < 0 else str(subsets[k].GetPath()), whole.points,
+                              whole.triangles[sel],
+                              None if whole.normals is None else whole.normals[sel],
+                              None if whole.uvs is None else whole.uvs[sel],
+                              double_sided=whole.double_sided))
+    return parts
+
+
+def _double_sided(prim: Usd.Prim) -> bool:
+    """USD's `doubleSided` when authored; otherwise True, because Hydra does not cull back faces
+    of single-sided gprims by default either and course scenes expect two-sided triangles."""
+    attr = UsdGeom.Gprim(prim).GetDoubleSidedAttr()
+    return bool(attr.Get()) if attr.HasAuthoredValue() else True
+
+
+def _finish(path: str, points: np.ndarray, triangles: np.ndarray, normals, uvs,
+            m: np.ndarray, smooth: bool, double_sided: bool) -> Mesh:
+    """Bake the gprim-to-container matrix into gprim-space geometry.
+
+    `triangles` must be CCW in gprim space; a mirroring matrix reverses them.  `normals` are
+    per-corner gprim-space directions (or None), `smooth` asks for area-weighted vertex normals
+    computed after the transform."""
+    lin = m[:3, :3]
+    p = points @ lin.T + m[:3, 3]
+    tris = np.ascontiguousarray(triangles, np.int32)
+    if np.linalg.det(lin) < 0:
+        tris = tris[:, [0, 2, 1]]
+        normals = None if normals is None else normals[:, [0, 2, 1]]
+        uvs = None if uvs is None else uvs[:, [0, 2, 1]]
+    face_n = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
+    if normals is not None:
+        n = normals @ np.linalg.inv(lin)          # row vectors: n' = n M^-1 = (M^-T n)^T
+        normals = _unit(n, np.repeat(face_n[:, None, :], 3, axis=1))
+    elif smooth:
+        acc = np.zeros_like(p)
+        for c in range(3):
+            for a in range(3):
+                acc[:, a] += np.bincount(tris[:, c], face_n[:, a], minlength=len(p))
+        normals = _unit(acc[tris], np.repeat(face_n[:, None, :], 3, axis=1))
+    return Mesh(path=path, points=p, triangles=tris,
+                normals=None if normals is None else normals.astype(np.float32),
+                uvs=None if uvs is None else np.ascontiguousarray(uvs[..., :2], np.float32),
+                double_sided=double_sided)
+
+
+def _unit(v: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """Normalise vectors along the last axis; zero or non-finite ones take the (normalised)
+    fallback direction, and if that is degenerate too, +Y."""
+    out = np.array(v, np.float64)
+    length = np.linalg.norm(out, axis=-1, keepdims=True)
+    bad = ~(np.isfinite(length) & (length > 0))[..., 0]
+    out[bad] = fallback[bad]
+    length = np.linalg.norm(out, axis=-1, keepdims=True)
+    bad = ~(np.isfinite(length) & (length > 0))[..., 0]
+    out[bad] = (0.0, 1.0, 0.0)
+    return out / np.linalg.norm(out, axis=-1, keepdims=True)
+
+
+# --------------------------------------------------------------------------- quadrics
+def _axis_frame(axis: str) -> np.ndarray:
+    """Rotation taking the Z-axis-aligned canonical shape to the authored `axis` (a cyclic
+    permutation of the coordinates, det = +1, so winding is preserved)."""
+    if axis == 'X':
+        return np.array([[0, 0, 1], [1, 0, 0], [0, 1, 0]], np.float64)
+    if axis == 'Y':
+        return np.array([[0, 1, 0], [0, 0, 1], [1, 0, 0]], np.float64)
+    return np.eye(3)
+
+
+def _shape(prim, name: str, time, default: float, positive=True) -> float:
+    attr = prim.GetAttribute(name)
+    value = attr.Get(time) if attr else None
+    value = default if value is None else float(value)
+    if not np.isfinite(value) or (positive and value <= 0) or value < 0:
+        raise GeometryError(f'{prim.GetPath()}: {name} = {value} is not a valid size')
+    return value
+
+
+def _revolve(profile: list[tuple[float, float, float, float, float]]):
+    """Surface of revolution around +Z from a profile of (radius, z, normal_r, normal_z, v) rows
+    ordered bottom to top.  Consecutive rows form a band; bands whose ends coincide are skipped
+    and degenerate triangles at the poles are dropped.  Returns (points, tris, normals, uvs)
+    per point (points duplicated along the seam for UVs)."""
+    phi = np.linspace(0.0, 2 * np.pi, SEGMENTS + 1)
+    c, s = np.cos(phi), np.sin(phi)
+    u = phi / (2 * np.pi)
+    pts, nrm, uv, tris = [], [], [], []
+    for (r, z, nr, nz, v) in profile:
+        pts.append(np.stack([r * c, r * s, np.full_like(c, z)], 1))
+        nrm.append(np.stack([nr * c, nr * s, np.full_like(c, nz)], 1))
+        uv.append(np.stack([u, np.full_like(u, v)], 1))
+    w = SEGMENTS + 1
+    i = np.arange(SEGMENTS)
+    for k in range(len(profile) - 1):
+        (r0, z0, *_), (r1, z1, *_) = profile[k], profile[k + 1]
+        if r0 == r1 and z0 == z1:
+            continue
+        b, t = k * w + i, (k + 1) * w + i
+        if r0 > 0:
+            tris.append(np.stack([b, b + 1, t + 1], 1))
+        if r1 > 0:
+            tris.append(np.stack([b, t + 1, t], 1))
+    return np.concatenate(pts), np.concatenate(tris), np.concatenate(nrm), np.concatenate(uv)
+
+
+def _disk(radius: float, z: float, up: bool):
+    """A flat cap (fan around its centre) facing +Z (`up`) or -Z."""
+    phi = np.linspace(0.0, 2 * np.pi, SEGMENTS + 1)[:-1]
+    ring = np.stack([radius * np.cos(phi), radius * np.sin(phi), np.full_like(phi, z)], 1)
+    pts = np.vstack([[0.0, 0.0, z], ring])
+    i = np.arange(SEGMENTS)
+    a, b = 1 + i, 1 + (i + 1) % SEGMENTS
+    tris = np.stack([np.zeros_like(i), a, b] if up else [np.zeros_like(i), b, a], 1)
+    nrm = np.tile([0.0, 0.0, 1.0 if up else -1.0], (len(pts), 1))
+    uv = 0.5 + 0.5 * pts[:, :2] / radius
+    return pts, tris, nrm, uv
+
+
+def _merge(*parts):
+    pts, tris, nrm, uv, base = [], [], [], [], 0
+    for p, t, n, u in parts:
+        pts.append(p); tris.append(t + base); nrm.append(n); uv.append(u)
+        base += len(p)
+    return np.concatenate(pts), np.concatenate(tris), np.concatenate(nrm), np.concatenate(uv)
+
+
+def _quadric(prim, m, parts, axis: str, double_sided: bool) -> list[Mesh]:
+    pts, tris, nrm, uv = _merge(*parts)
+    rot = _axis_frame(axis)
+    pts, nrm = pts @ rot.T, nrm @ rot.T
+    return [_finish(str(prim.GetPath()), pts, tris, nrm[tris], uv[tris], m, False, double_sided)]
+
+
+def _frustum(rb: float, rt: float, h: float):
+    """Side and caps of a cylinder (rb = rt) or cone (rt = 0) of height h centred on the origin."""
+    slope = np.array([h, rb - rt]) / np.hypot(h, rb - rt)
+    parts = [_revolve([(rb, -h / 2, slope[0], slope[1], 0.0), (rt, h / 2, slope[0], slope[1], 1.0)])]
+    if rb > 0:
+        parts.append(_disk(rb, -h / 2, up=False))
+    if rt > 0:
+        parts.append(_disk(rt, h / 2, up=True))
+    return parts
+
+
+def _cylinder(prim, m, time, warn):
+    h = _shape(prim, 'height', time, 2.0)
+    if prim.GetTypeName() == 'Cylinder_1':
+        rb = _shape(prim, 'radiusBottom', time, 1.0, positive=False)
+        rt = _shape(prim, 'radiusTop', time, 1.0, positive=False)
+    else:
+        rb = rt = _shape(prim, 'radius', time, 1.0)
+    if rb == 0 and rt == 0:
+        raise GeometryError(f'{prim.GetPath()}: both radii are 0')
+    return _quadric(prim, m, _frustum(rb, rt, h), prim.GetAttribute('axis').Get(time) or 'Z',
+                    _double_sided(prim))
+
+
+def _cone(prim, m, time, warn):
+    h, r = _shape(prim, 'height', time, 2.0), _shape(prim, 'radius', time, 1.0)
+    return _quadric(prim, m, _frustum(r, 0.0, h), prim.GetAttribute('axis').Get(time) or 'Z',
+                    _double_sided(prim))
+
+
+def _capsule(prim, m, time, warn):
+    """Two hemispheres joined by a band.  For Capsule_1 with different radii the band joins the
+    equators (not the exact tangent cone) -- a close approximation for moderate differences."""
+    h = _shape(prim, 'height', time, 1.0, positive=False)
+    if prim.GetTypeName() == 'Capsule_1':
+        rb = _shape(prim, 'radiusBottom', time, 0.5)
+        rt = _shape(prim, 'radiusTop', time, 0.5)
+    else:
+        rb = rt = _shape(prim, 'radius', time, 0.5)
+    lat = np.linspace(-np.pi / 2, 0.0, RINGS + 1)
+    total = np.pi * (rb + rt) / 2 + h
+    profile = [(rb * np.cos(a), -h / 2 + rb * np.sin(a), np.cos(a), np.sin(a),
+                (rb * (a + np.pi / 2)) / total) for a in lat]
+    profile += [(rt * np.cos(a), h / 2 + rt * np.sin(a), np.cos(a), np.sin(a),
+                 (rb * np.pi / 2 + h + rt * a) / total) for a in -lat[::-1]]
+    return _quadric(prim, m, [_revolve(profile)], prim.GetAttribute('axis').Get(time) or 'Z',
+                    _double_sided(prim))
+
+
+def _cube(prim, m, time, warn):
+    half = _shape(prim, 'size', time, 2.0) / 2
+    pts, nrm, uv, tris = [], [], [], []
+    for a in range(3):
+        for sign in (1.0, -1.0):
+            n = np.zeros(3); n[a] = sign
+            u = np.zeros(3); u[(a + 1) % 3] = 1.0
+            v = np.cross(n, u)                               # u x v = n: CCW seen from outside
+            base = len(pts)
+            for (su, sv), t in zip(((-1, -1), (1, -1), (1, 1), (-1, 1)), ((0, 0), (1, 0), (1, 1), (0, 1))):
+                pts.append(half * (n + su * u + sv * v)); nrm.append(n); uv.append(t)
+            tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
+    return _quadric(prim, m, [(np.array(pts), np.array(tris), np.array(nrm), np.array(uv, float))],
+                    'Z', _double_sided(prim))
+
+
+def _plane(prim, m, time, warn):
+    """A two-triangle rectangle facing +axis; always double-sided (a plane has no inside)."""
+    w, length = _shape(prim, 'width', time, 2.0), _shape(prim, 'length', time, 2.0)
+    axis = prim.GetAttribute('axis').Get(time) or 'Z'
+    # (u, v, normal) axes with u x v = normal, and the extent along each in-plane axis
+    frames = {'Z': ((0, 1, 2), (w, length)), 'X': ((1, 2, 0), (length, w)), 'Y': ((2, 0, 1), (length, w))}
+    (iu, iv, inorm), (su, sv) = frames[axis] if axis in frames else frames['Z']
+    pts = np.zeros((4, 3))
+    corners = np.array([(-1, -1), (1, -1), (1, 1), (-1, 1)], float)
+    pts[:, iu], pts[:, iv] = corners[:, 0] * su / 2, corners[:, 1] * sv / 2
+    nrm = np.zeros((4, 3)); nrm[:, inorm] = 1.0
+    tris = np.array([(0, 1, 2), (0, 2, 3)])
+    uv = (corners + 1) / 2
+    return [_finish(str(prim.GetPath()), pts, tris, nrm[tris], uv[tris], m, False, True)]
+
+
+def _sphere(prim, m, time, warn):
+    r = _shape(prim, 'radius', time, 1.0)
+    return [Sphere(path=str(prim.GetPath()), radius=r, matrix=np.array(m, np.float64))]
+
+
+_CONVERTERS = {
+    'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
+    'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,
+    'Plane': _plane,
+}

@@ -1,0 +1,392 @@
+"""The instance graph of a composed stage, walked once per container and flattened to one level.
+
+Containers (what gets one BVH) are the stage root, each native prototype (``/__Prototype_N``),
+each PointInstancer prototype root, and -- when a gprim's own transform moves during the
+shutter -- that gprim alone (so that moving plain gprims keep their motion instead of being
+baked into the root's static geometry).  `InstanceGraph.build` visits each container's prims
+once and records
+
+* its gprims (with their purpose as seen inside the container, -1 = inherited from wherever the
+  container is placed),
+* its references to other containers: native instance prims, PointInstancers (one row per
+  instance, from `ComputeInstanceTransformsAtTimes` converted with numpy), moving gprims,
+* its lights, and on the root walk the cameras and render-settings prims it passes.
+
+`InstanceGraph.evaluate` then computes every container-relative transform at the K motion
+times in one pass per time (one `UsdGeom.XformCache` each), and `InstanceGraph.flatten` expands
+the reference graph into placements: (container, world matrices (N, K, 4, 4), purpose, namespace
+map).  The namespace map records how a path inside the container reads on the composed stage
+(``/__Prototype_3/Geom`` -> ``/World/Tree_7/Geom``), which is what per-instance material binding
+resolution needs; it is only marked as needing resolution when some binding or displayColor is
+authored on the way (an instance prim or its ancestors), so that 10^5 plain instances cost
+nothing extra.
+
+Rules implemented (see /work/shared/usd-mapping.md): invisible prims prune their subtree;
+purpose is the prim's own authored value, else the nearest ancestor's, else `default`; only
+`default` and `render` are rendered; a PointInstancer's purpose does not propagate into its
+prototypes, whose roots are walked with usdImaging's prototype predicate (active, defining
+specifier, not abstract, loaded); an instance prim that is itself a gprim is rendered as a gprim
+of its parent container as well as placing its prototype.
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Callable, Optional
+
+import numpy as np
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, Vt
+
+from renderer.errors import SceneError
+from renderer.usd_geometry import converter_for
+from renderer.usd_lights import LIGHT_TYPES
+
+Warn = Callable[[str], None]
+PURPOSES = {'default': 0, 'render': 1, 'proxy': 2, 'guide': 3}
+INHERIT = -1
+RENDERED = (0, 1)
+PI = UsdGeom.PointInstancer
+PI_PROTOTYPE_PREDICATE = (Usd.PrimIsActive & Usd.PrimHasDefiningSpecifier & ~Usd.PrimIsAbstract
+                          & Usd.PrimIsLoaded)
+MAX_DEPTH = 64
+_BINDING_NAMES = ('material:binding', 'primvars:displayColor')
+
+
+def _kind(prim: Usd.Prim, cache: dict) -> str:
+    """Category of a prim, cached per type name: gprim / unsupported / pi / light / camera /
+    settings / other."""
+    name = prim.GetTypeName()
+    if name not in cache:
+        if converter_for(name):
+            cache[name] = 'gprim'
+        elif prim.IsA(PI):
+            cache[name] = 'pi'
+        elif name in LIGHT_TYPES or prim.IsA(UsdLux.BoundableLightBase) or prim.IsA(UsdLux.NonboundableLightBase):
+            cache[name] = 'light'
+        elif prim.IsA(UsdGeom.Gprim):
+            cache[name] = 'unsupported'
+        elif prim.IsA(UsdGeom.Camera):
+            cache[name] = 'camera'
+        elif prim.IsA(UsdRender.Settings):
+            cache[name] = 'settings'
+        else:
+            cache[name] = 'other'
+    return cache[name]
+
+
+@dataclass
+class Ref:
+    """A placement of another container inside this one."""
+    child: int                     # node index
+    prim: Optional[Usd.Prim]       # whose transform places it (None: identity)
+    purpose: int
+    label: Sdf.Path                # instance / gprim path in this container's namespace
+    prototype: Optional[Sdf.Path]  # native prototype path: the child's paths map under `label`
+    needs_binding: bool            # bindings/displayColor authored at or above the placing prim
+
+
+@dataclass
+class Instancer:
+    prim: Usd.Prim
+    children: list                 # node index per prototype, or None for unusable targets
+
+
+@dataclass
+class Node:
+    key: str
+    root: Usd.Prim
+    base: Optional[Usd.Prim]       # transforms are relative to it (None: local-to-world)
+    gprims: list = field(default_factory=list)        # (prim, purpose)
+    refs: list = field(default_factory=list)          # Ref
+    instancers: list = field(default_factory=list)    # Instancer
+    lights: list = field(default_factory=list)        # prim
+    # filled by evaluate(): (n, K, 4, 4) column-vector matrices
+    gprim_xf: np.ndarray = None
+    ref_xf: np.ndarray = None
+    light_xf: np.ndarray = None
+    pi_rows: list = field(default_factory=list)       # per instancer: (children (n,), matrices (n, K, 4, 4))
+
+
+@dataclass
+class Placements:
+    """Flattened placements of one container."""
+    matrices: list = field(default_factory=list)      # arrays (m, K, 4, 4)
+    purpose: list = field(default_factory=list)       # arrays (m,)
+    maps: list = field(default_factory=list)          # arrays (m,) into InstanceGraph.maps
+    labels: list = field(default_factory=list)        # lists of str
+
+
+def _to_numpy(matrices: list) -> np.ndarray:
+    """Gf.Matrix4d list (row vectors) -> float64 (n, 4, 4) column-vector matrices."""
+    if not matrices:
+        return np.zeros((0, 4, 4))
+    return np.array(Vt.Matrix4dArray(matrices)).transpose(0, 2, 1)
+
+
+class InstanceGraph:
+    def __init__(self, stage: Usd.Stage, time: Usd.TimeCode, warn: Warn):
+        self.stage, self.time, self.warn = stage, time, warn
+        self.nodes: list[Node] = []
+        self.index: dict[str, int] = {}
+        self.skipped: list[str] = []
+        self.cameras: list[Usd.Prim] = []
+        self.settings: list[Usd.Prim] = []
+        self.animated = any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers())
+        self.xform_prims: list[Usd.Prim] = []   # prims with authored xformOps (animated stages only)
+        self.maps: list[tuple[Sdf.Path, Sdf.Path, bool]] = [
+            (Sdf.Path.absoluteRootPath, Sdf.Path.absoluteRootPath, False)]
+        self._kinds: dict = {}
+
+    # ------------------------------------------------------------------ walk
+    def build(self) -> None:
+        self._node('/', self.stage.GetPseudoRoot(), None, include_root=False)
+
+    def _node(self, key: str, root: Usd.Prim, base, include_root: bool) -> int:
+        if key in self.index:
+            return self.index[key]
+        self.index[key] = len(self.nodes)
+        node = Node(key, root, base)
+        self.nodes.append(node)
+        self._walk(node, include_root)
+        return self.index[key]
+
+    def _walk(self, node: Node, include_root: bool) -> None:
+        t, root, is_root = self.time, node.root, node.key == '/'
+        it = iter(Usd.PrimRange(root, PI_PROTOTYPE_PREDICATE if include_root else Usd.PrimDefaultPredicate))
+        purpose = {root.GetPath().GetParentPath(): INHERIT}
+        binding = {root.GetPath().GetParentPath(): False}
+        for prim in it:
+            if prim == root and not include_root:
+                purpose[prim.GetPath()], binding[prim.GetPath()] = INHERIT, False
+                continue
+            path, parent = prim.GetPath(), prim.GetPath().GetParentPath()
+            p, b = purpose.get(parent, INHERIT), binding.get(parent, False)
+            names = prim.GetAuthoredPropertyNames()
+            if names:
+                if 'visibility' in names and prim.GetAttribute('visibility').Get(t) == UsdGeom.Tokens.invisible:
+                    it.PruneChildren()
+                    continue
+                if 'purpose' in names:
+                    p = PURPOSES.get(prim.GetAttribute('purpose').Get(t), p)
+                b = b or any(n.startswith(_BINDING_NAMES) for n in names)
+                if self.animated and any(n.startswith('xformOp') for n in names):
+                    self.xform_prims.append(prim)
+            purpose[path], binding[path] = p, b
+            kind = _kind(prim, self._kinds)
+            if prim.IsInstance():
+                if kind == 'gprim' and p not in (2, 3):
+                    node.gprims.append((prim, p))
+                proto = prim.GetPrototype()
+                child = self._node(str(proto.GetPath()), proto, None, include_root=False)
+                node.refs.append(Ref(child, prim, p, path, proto.GetPath(), b))
+                it.PruneChildren()
+            elif kind == 'pi':
+                node.instancers.append(self._instancer(prim))
+                it.PruneChildren()
+            elif kind == 'gprim':
+                if p not in (2, 3):
+                    node.gprims.append((prim, p))
+            elif kind == 'light':
+                node.lights.append(prim)
+            elif kind == 'unsupported':
+                self.skipped.append(f'{path}: {prim.GetTypeName()} is not supported')
+            elif kind == 'camera' and is_root:
+                self.cameras.append(prim)
+            elif kind == 'settings' and is_root:
+                self.settings.append(prim)
+
+    def _instancer(self, prim: Usd.Prim) -> Instancer:
+        children = []
+        for target in PI(prim).GetPrototypesRel().GetForwardedTargets():
+            r = self.stage.GetPrimAtPath(target)
+            if not r or not r.IsActive() or not r.HasDefiningSpecifier() or r.IsAbstract():
+                self.warn(f'{prim.GetPath()}: prototype {target} is missing or not defined; '
+                          'its instances are dropped')
+                children.append(None)
+            elif r.IsInstance():
+                children.append(self._instance_root(r))
+            else:
+                children.append(self._node(f'PI:{target}', r, r, include_root=True))
+        if self.animated:
+            self.xform_prims.append(prim)
+        return Instancer(prim, children)
+
+    def _instance_root(self, r: Usd.Prim) -> int:
+        """A PointInstancer prototype root that is itself a native instance: its own gprim (if
+        any) plus its prototype, both at identity (the root's transform is part of each PI
+        instance transform)."""
+        key = f'PIinst:{r.GetPath()}'
+        if key in self.index:
+            return self.index[key]
+        self.index[key] = len(self.nodes)
+        node = Node(key, r, r)
+        self.nodes.append(node)
+        own = PURPOSES.get(UsdGeom.Imageable(r).GetPurposeAttr().Get(self.time), 0) \
+            if UsdGeom.Imageable(r).GetPurposeAttr().HasAuthoredValue() else INHERIT
+        if _kind(r, self._kinds) == 'gprim' and own not in (2, 3):
+            node.gprims.append((r, own))
+        proto = r.GetPrototype()
+        child = self._node(str(proto.GetPath()), proto, None, include_root=False)
+        node.refs.append(Ref(child, None, own, r.GetPath(), proto.GetPath(), True))
+        return self.index[key]
+
+    # ------------------------------------------------------------------ motion
+    def sample_times(self, time: float, shutter: tuple[float, float], extra: list) -> list[float]:
+        """Authored transform sample times strictly inside the shutter of everything that moves
+        (`extra`: more xformable prims, e.g. the camera), plus both ends; [time] if nothing in
+        the scene is time-varying or the shutter is closed."""
+        lo, hi = time + shutter[0], time + shutter[1]
+        if not self.animated or hi <= lo:
+            return [time]
+        interval, times, moving = Gf.Interval(lo, hi), {lo, hi}, False
+        for prim in self.xform_prims + extra:
+            if prim.IsA(PI) and self._instancer_moves(PI(prim)):
+                moving = True
+                pi = PI(prim)
+                for attr in (pi.GetPositionsAttr(), pi.GetOrientationsAttr(), pi.GetOrientationsfAttr(),
+                             pi.GetScalesAttr()):
+                    times.update(attr.GetTimeSamplesInInterval(interval))
+            xf = UsdGeom.Xformable(prim)
+            if xf and xf.TransformMightBeTimeVarying():
+                moving = True
+                times.update(xf.GetTimeSamplesInInterval(interval))
+        return sorted(times) if moving else [time]
+
+    @staticmethod
+    def _instancer_moves(pi: UsdGeom.PointInstancer) -> bool:
+        """Instance transforms vary with time: several samples of positions/orientations/scales,
+        or (angular) velocities extrapolating a time-sampled position/orientation."""
+        sampled = [a.GetNumTimeSamples() for a in (pi.GetPositionsAttr(), pi.GetOrientationsAttr(),
+                                                   pi.GetOrientationsfAttr(), pi.GetScalesAttr())]
+        velocity = pi.GetVelocitiesAttr().HasAuthoredValue() or pi.GetAngularVelocitiesAttr().HasAuthoredValue()
+        return max(sampled) > 1 or (velocity and max(sampled[:3]) > 0)
+
+    # ------------------------------------------------------------------ transforms
+    def evaluate(self, times: list[float]) -> None:
+        """Container-relative transforms of every gprim, reference, light and PointInstancer
+        instance at the motion `times` (a list of K time codes)."""
+        caches = [UsdGeom.XformCache(Usd.TimeCode(t)) for t in times]
+
+        def relative(node: Node, prims: list) -> np.ndarray:
+            per_time = []
+            for xc in caches:
+                if node.base is None:
+                    mats = [xc.GetLocalToWorldTransform(p) if p is not None else Gf.Matrix4d(1) for p in prims]
+                else:
+                    mats = [Gf.Matrix4d(1) if p is None or p == node.base else
+                            xc.ComputeRelativeTransform(p, node.base)[0] for p in prims]
+                per_time.append(_to_numpy(mats))
+            return np.stack(per_time, axis=1) if prims else np.zeros((0, len(times), 4, 4))
+
+        for node in self.nodes:
+            node.gprim_xf = relative(node, [g for g, _ in node.gprims])
+            node.ref_xf = relative(node, [r.prim for r in node.refs])
+            node.light_xf = relative(node, node.lights)
+            node.pi_rows = [self._pi_rows(node, inst, times, relative) for inst in node.instancers]
+
+    def _pi_rows(self, node: Node, inst: Instancer, times: list[float], relative):
+        """(child node per instance (n,), matrices (n, K, 4, 4)) of one PointInstancer, masked
+        instances and bad prototype indices removed, all in numpy."""
+        pi, path, t = PI(inst.prim), inst.prim.GetPath(), self.time
+        indices = np.asarray(pi.GetProtoIndicesAttr().Get(t) or [], np.int64)
+        empty = (np.zeros(0, np.int64), np.zeros((0, len(times), 4, 4)))
+        if len(indices) == 0 or not inst.children:
+            return empty
+        samples = pi.ComputeInstanceTransformsAtTimes([Usd.TimeCode(x) for x in times], t,
+                                                      PI.IncludeProtoXform, PI.IgnoreMask)
+        if not samples or any(len(s) != len(indices) for s in samples):
+            self.warn(f'{path}: instance attributes do not match protoIndices ({len(indices)}); '
+                      'PointInstancer dropped')
+            return empty
+        xf = np.stack([np.array(s) for s in samples], axis=1).transpose(0, 1, 3, 2)   # (n, K, 4, 4)
+        keep = np.ones(len(indices), bool)
+        mask = pi.ComputeMaskAtTime(t)
+        if len(mask):
+            keep &= np.asarray(mask, bool)
+        table = np.array([-1 if c is None else c for c in inst.children], np.int64)
+        bad = (indices < 0) | (indices >= len(table))
+        if bad.any():
+            self.warn(f'{path}: {int(bad.sum())} protoIndices out of range; those instances dropped')
+        keep &= ~bad
+        child = np.where(bad, -1, table[np.clip(indices, 0, len(table) - 1)])
+        keep &= child >= 0
+        to_node = relative(node, [inst.prim])[0]                                      # (K, 4, 4)
+        return child[keep], to_node[None] @ xf[keep]
+
+    def split_moving_gprims(self) -> None:
+        """Give every gprim whose container-relative transform changes over the shutter its own
+        container, placed by that transform, so its motion is not lost by baking."""
+        for node in list(self.nodes):
+            if len(node.gprims) == 0 or node.gprim_xf.shape[1] < 2:
+                continue
+            moving = np.any(node.gprim_xf != node.gprim_xf[:, :1], axis=(1, 2, 3))
+            if not moving.any():
+                continue
+            keep = []
+            for i, (prim, purpose) in enumerate(node.gprims):
+                if not moving[i]:
+                    keep.append(i)
+                    continue
+                key = f'rigid:{node.key}:{prim.GetPath()}'
+                self.index[key] = len(self.nodes)
+                rigid = Node(key, prim, prim, gprims=[(prim, INHERIT)])
+                rigid.gprim_xf = np.broadcast_to(np.eye(4), (1, *node.gprim_xf.shape[1:])).copy()
+                rigid.ref_xf = rigid.light_xf = np.zeros((0, *node.gprim_xf.shape[1:]))
+                self.nodes.append(rigid)
+                node.refs.append(Ref(self.index[key], prim, purpose, prim.GetPath(), None, False))
+                node.ref_xf = np.concatenate([node.ref_xf, node.gprim_xf[i:i + 1]])
+            node.gprims = [node.gprims[i] for i in keep]
+            node.gprim_xf = node.gprim_xf[keep]
+
+    # ------------------------------------------------------------------ flatten
+    def flatten(self, root_matrix: np.ndarray) -> dict[int, Placements]:
+        """Expand the reference graph from the root, placed at `root_matrix` (K, 4, 4).
+        Returns placements per node index (nodes never placed are absent)."""
+        out: dict[int, Placements] = {}
+        self._visit(0, root_matrix[None], np.zeros(1, np.int8), np.zeros(1, np.int64), ['/'], out, 0)
+        return out
+
+    def _visit(self, n: int, world, purpose, maps, labels, out, depth) -> None:
+        if depth > MAX_DEPTH:
+            raise SceneError(f'{self.stage.GetRootLayer().identifier}: instancing nested deeper than '
+                             f'{MAX_DEPTH} levels at {self.nodes[n].key} (cycle?)')
+        node = self.nodes[n]
+        acc = out.setdefault(n, Placements())
+        acc.matrices.append(world); acc.purpose.append(purpose); acc.maps.append(maps); acc.labels.append(labels)
+        m = len(world)
+        groups: dict[int, list] = {}
+        for ref, rel in zip(node.refs, node.ref_xf):
+            w = world @ rel[None]
+            p = np.full(m, ref.purpose, np.int8) if ref.purpose != INHERIT else purpose
+            if ref.prototype is None:
+                new_maps = maps
+                lab = [str(self._map_path(int(mi), ref.label)) for mi in maps]
+            else:
+                new_maps, lab = self._descend(maps, ref)
+            groups.setdefault(ref.child, []).append((w, p, new_maps, lab))
+        for inst, (child, rel) in zip(node.instancers, node.pi_rows):
+            if len(child) == 0:
+                continue
+            for c in np.unique(child):
+                sel = rel[child == c]                                   # (k, K, 4, 4)
+                w = (world[:, None] @ sel[None]).reshape(-1, *sel.shape[1:])
+                k = len(sel)
+                lab = [str(self._map_path(int(mi), inst.prim.GetPath())) for mi in maps]
+                groups.setdefault(int(c), []).append(
+                    (w, np.zeros(m * k, np.int8), np.repeat(maps, k), [x for x in lab for _ in range(k)]))
+        for child, parts in groups.items():
+            self._visit(child, np.concatenate([g[0] for g in parts]), np.concatenate([g[1] for g in parts]),
+                        np.concatenate([g[2] for g in parts]), [x for g in parts for x in g[3]], out, depth + 1)
+
+    def _map_path(self, map_id: int, path: Sdf.Path) -> Sdf.Path:
+        src, dst, _ = self.maps[map_id]
+        return path if src == dst else path.ReplacePrefix(src, dst)
+
+    def _descend(self, maps: np.ndarray, ref: Ref):
+        """New namespace maps for a native instance reference under each parent map."""
+        new, labels = np.empty(len(maps), np.int64), []
+        for i, mi in enumerate(maps):
+            dst = self._map_path(int(mi), ref.label)
+            self.maps.append((ref.prototype, dst, self.maps[int(mi)][2] or ref.needs_binding))
+            new[i] = len(self.maps) - 1
+            labels.append(str(dst))
+        return new, labels

@@ -1,0 +1,148 @@
+"""UsdLux lights -> `Light` records with UsdLux radiometry folded into `radiance`.
+
+``L = color * intensity * 2**exposure`` (times the blackbody colour when
+``enableColorTemperature``), then per type:
+
+* area lights (SphereLight with a radius, RectLight, DiskLight): `radiance` = L, divided by the
+  world-space surface area when ``normalize`` is on;
+* point (SphereLight with ``treatAsPoint`` or radius 0): `radiance` = radiant intensity I.  With
+  ``normalize`` (or a zero radius, whose un-normalised power would be 0) I = L / 4, the limit of
+  a normalised sphere (power independent of radius); a non-normalised ``treatAsPoint`` sphere of
+  world radius r keeps the power of the sphere it stands for, I = L * pi * r**2;
+* DistantLight: `radiance` = irradiance E on a surface facing it: L when normalized, else
+  L * sizeFactor (pi sin^2(angle/2) per the UsdLux `normalize` documentation, 1 for angle 0);
+* DomeLight: L (multiplies the lat-long texture if any).
+
+`Light.matrix` is returned **rigid** (orthonormal, det +1; emission along its -Z): scale in the
+light's transform is folded into `radius` / `width` / `height`, which are world-space sizes.
+"""
+from __future__ import annotations
+
+import math
+from typing import Callable, Optional
+
+import numpy as np
+from pxr import Usd, UsdLux
+
+from renderer.description import DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
+
+Warn = Callable[[str], None]
+LIGHT_TYPES = ('SphereLight', 'RectLight', 'DiskLight', 'DistantLight', 'DomeLight', 'DomeLight_1')
+
+
+def rigid_frame(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Split an affine matrix into a rigid one (same origin and Z direction) and the lengths of
+    its three axes."""
+    lin = m[:3, :3]
+    scale = np.linalg.norm(lin, axis=0)
+    z = lin[:, 2] / scale[2]
+    x = lin[:, 0] - np.dot(lin[:, 0], z) * z
+    x /= np.linalg.norm(x)
+    out = np.eye(4)
+    out[:3, 0], out[:3, 1], out[:3, 2], out[:3, 3] = x, np.cross(z, x), z, m[:3, 3]
+    return out, scale
+
+
+def _rotate_x(degrees: float) -> np.ndarray:
+    c, s = math.cos(math.radians(degrees)), math.sin(math.radians(degrees))
+    return np.array([[1, 0, 0, 0], [0, c, -s, 0], [0, s, c, 0], [0, 0, 0, 1]], np.float64)
+
+
+def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis: str,
+               load_texture: Callable, warn: Warn) -> Optional[Light]:
+    """A Light for a UsdLux light prim, or None (with a warning) when it cannot be used.
+
+    `load_texture(asset_path, owner) -> index` loads a DomeLight's lat-long image."""
+    path, kind = str(prim.GetPath()), prim.GetTypeName()
+    api = UsdLux.LightAPI(prim)
+    colour = np.array(api.GetColorAttr().Get(time), np.float64)
+    base = colour * float(api.GetIntensityAttr().Get(time)) * 2.0 ** float(api.GetExposureAttr().Get(time))
+    if api.GetEnableColorTemperatureAttr().Get(time):
+        base = base * np.array(UsdLux.BlackbodyTemperatureAsRgb(api.GetColorTemperatureAttr().Get(time)))
+    normalize = bool(api.GetNormalizeAttr().Get(time))
+    if not (np.all(np.isfinite(base)) and np.all(np.isfinite(to_world))):
+        warn(f'{path}: non-finite light parameters or transform; light ignored')
+        return None
+    if abs(np.linalg.det(to_world[:3, :3])) < 1e-300:
+        warn(f'{path}: singular light transform; light ignored')
+        return None
+    if prim.HasAPI(UsdLux.ShapingAPI):
+        cone = UsdLux.ShapingAPI(prim).GetShapingConeAngleAttr().Get(time)
+        if cone is not None and cone < 90:
+            warn(f'{path}: ShapingAPI cone ({cone} deg) is not supported; emitting unshaped')
+    if kind in ('DomeLight', 'DomeLight_1'):
+        m = to_world
+        if kind == 'DomeLight_1':
+            pole = prim.GetAttribute('poleAxis').Get(time) or 'scene'
+            if pole == 'Z' or (pole == 'scene' and up_axis == 'Z'):
+                m = to_world @ _rotate_x(90.0)        # the dome's top pole (+Y) onto local +Z
+        frame, _ = rigid_frame(m)
+        texture = -1
+        asset = UsdLux.DomeLight(prim).GetTextureFileAttr().Get(time) if kind == 'DomeLight' else \
+            prim.GetAttribute('inputs:texture:file').Get(time)
+        if asset is not None and asset.path:
+            fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
+            if fmt in ('automatic', 'latlong'):
+                texture = load_texture(asset, path)
+            else:
+                warn(f'{path}: dome texture format "{fmt}" is not supported; constant colour')
+        return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture)
+
+    frame, scale = rigid_frame(to_world)
+    if kind == 'DistantLight':
+        angle = float(UsdLux.DistantLight(prim).GetAngleAttr().Get(time))
+        theta = min(max(math.radians(angle) / 2, 0.0), math.pi)
+        if normalize or theta == 0:
+            size = 1.0
+        elif theta <= math.pi / 2:
+            size = math.pi * math.sin(theta) ** 2
+        else:
+            size = (2 - math.sin(theta) ** 2) * math.pi
+        return Light(path=path, type=DISTANT, matrix=frame, radiance=_rgb(base * size), angle=angle)
+    if kind == 'SphereLight':
+        light = UsdLux.SphereLight(prim)
+        r = float(light.GetRadiusAttr().Get(time)) * float(np.prod(scale)) ** (1 / 3)
+        if np.ptp(scale) > 1e-3 * scale.max():
+            warn(f'{path}: non-uniform scale on a SphereLight; using the mean radius {r:g}')
+        if light.GetTreatAsPointAttr().Get(time) or r <= 0:
+            intensity = base / 4 if (normalize or r <= 0) else base * math.pi * r * r
+            return Light(path=path, type=POINT, matrix=frame, radiance=_rgb(intensity))
+        area = 4 * math.pi * r * r
+        return Light(path=path, type=SPHERE, matrix=frame, radius=r,
+                     radiance=_rgb(base / area if normalize else base))
+    cross = float(np.linalg.norm(np.cross(to_world[:3, 0], to_world[:3, 1])))   # area scale in XY
+    if kind == 'RectLight':
+        light = UsdLux.RectLight(prim)
+        if light.GetTextureFileAttr().Get(time):
+            warn(f'{path}: RectLight texture is not supported; constant colour')
+        w, h = float(light.GetWidthAttr().Get(time)), float(light.GetHeightAttr().Get(time))
+        area = w * h * cross
+        if area <= 0:
+            warn(f'{path}: RectLight with zero area; light ignored')
+            return None
+        return Light(path=path, type=RECT, matrix=frame, width=w * scale[0], height=h * scale[1],
+                     radiance=_rgb(base / area if normalize else base))
+    if kind == 'DiskLight':
+        r = float(UsdLux.DiskLight(prim).GetRadiusAttr().Get(time))
+        area = math.pi * r * r * cross
+        if area <= 0:
+            warn(f'{path}: DiskLight with zero area; light ignored')
+            return None
+        return Light(path=path, type=DISK, matrix=frame, radius=r * math.sqrt(cross),
+                     radiance=_rgb(base / area if normalize else base))
+    warn(f'{path}: {kind} is not supported; light ignored')
+    return None
+
+
+def _rgb(v) -> tuple:
+    return tuple(float(x) for x in v)
+
+
+def default_lights(camera_matrix: np.ndarray) -> list[Light]:
+    """What a stage without lights is lit by: a DistantLight 'headlight' shining along the
+    camera's view direction (irradiance 3, so an 18% grey surface facing the camera shows
+    ~0.17) plus a dim constant DomeLight (radiance 0.1) so that shadowed sides are not black."""
+    frame, _ = rigid_frame(camera_matrix)
+    frame[:3, 3] = 0.0
+    return [Light(path='<default headlight>', type=DISTANT, matrix=frame, radiance=(3.0, 3.0, 3.0)),
+            Light(path='<default dome>', type=DOME, matrix=np.eye(4), radiance=(0.1, 0.1, 0.1))]

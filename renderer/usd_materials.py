@@ -1,0 +1,241 @@
+"""UsdShade materials -> `Material` / `Texture` records, each converted once.
+
+Resolution order for a bound material:
+1. ``rtc:model`` on the Material prim (written by rtc's compiler): the exact course model and
+   parameters (``rtc:diffuse``, ``rtc:specular``, ``rtc:phongExp``, ... see
+   schemas/usd-conventions.md).
+2. Its universal-render-context surface shader if that is a ``UsdPreviewSurface``: constant inputs
+   (following material-interface connections), and ``UsdUVTexture`` connections on
+   ``diffuseColor`` / ``specularColor`` (file, wrapS/T, scale, bias, sourceColorSpace, fallback).
+3. Anything else (MaterialX-only networks, unknown shader ids, missing surface) -> a warning and
+   the gprim's fallback.
+A gprim without a usable material gets a fallback material: its ``primvars:displayColor``
+(inherited from ancestors, averaged when it varies over the surface), else 18% grey.
+
+Textures are loaded lazily -- only when a material that is actually bound uses them -- and each
+image file is decoded once (sRGB-decoded when the file is 8-bit sRGB or the shader says so).
+"""
+from __future__ import annotations
+
+import os
+import tempfile
+from typing import Callable
+
+import numpy as np
+from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
+
+from renderer.description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+
+Warn = Callable[[str], None]
+GREY = (0.18, 0.18, 0.18)
+_WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
+_TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture'}
+
+
+def srgb_to_linear(c: np.ndarray) -> np.ndarray:
+    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
+
+
+class MaterialTable:
+    """Owns `materials` and `textures` of one SceneDescription; hands out indices."""
+
+    def __init__(self, time: Usd.TimeCode, warn: Warn):
+        self.time, self.warn = time, warn
+        self.materials: list[Material] = []
+        self.textures: list[Texture] = []
+        self._index: dict = {}          # material path / fallback key -> material index
+        self._pixels: dict = {}         # (resolved file, colour space) -> float32 pixels or None
+        self._texture_index: dict = {}  # (file, colour space, wraps, scale, bias) -> texture index
+
+    # ------------------------------------------------------------------ entry points
+    def bound(self, material: UsdShade.Material) -> int | None:
+        """Index of a bound material, or None when it has no usable surface (warned once)."""
+        key = str(material.GetPath())
+        if key not in self._index:
+            converted = self._convert(material)
+            self._index[key] = self._add(converted) if converted else None
+        return self._index[key]
+
+    def fallback(self, gprim: Usd.Prim) -> int:
+        """The displayColor (or grey) material of a gprim with no usable bound material."""
+        colour = GREY
+        pv = UsdGeom.PrimvarsAPI(gprim).FindPrimvarWithInheritance('displayColor')
+        if pv:
+            values = np.asarray(pv.ComputeFlattened(self.time) or [], np.float64).reshape(-1, 3)
+            if len(values) and np.all(np.isfinite(values)):
+                colour = tuple(float(x) for x in values.mean(axis=0))
+        key = ('displayColor', colour)
+        if key not in self._index:
+            label = '<grey>' if colour == GREY else f'<displayColor {colour[0]:.3g} {colour[1]:.3g} {colour[2]:.3g}>'
+            self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0))
+        return self._index[key]
+
+    def _add(self, material: Material) -> int:
+        self.materials.append(material)
+        return len(self.materials) - 1
+
+    # ------------------------------------------------------------------ conversion
+    def _convert(self, material: UsdShade.Material) -> Material | None:
+        prim, path = material.GetPrim(), str(material.GetPath())
+        model = prim.GetAttribute('rtc:model')
+        if model and model.Get() is not None:
+            if model.Get() in MODEL_NAMES:
+                return self._course(prim, MODEL_NAMES[model.Get()])
+            self.warn(f'{path}: unknown rtc:model "{model.Get()}"; reading its UsdPreviewSurface')
+        shader, _, _ = material.ComputeSurfaceSource()
+        if not shader:
+            contexts = [o.GetFullName().split(':')[1] for o in material.GetOutputs()
+                        if o.GetFullName().count(':') == 2]
+            self.warn(f'{path}: no UsdPreviewSurface surface'
+                      + (f' (only render contexts {sorted(set(contexts))})' if contexts else '')
+                      + '; using displayColor/grey')
+            return None
+        if shader.GetShaderId() != 'UsdPreviewSurface':
+            self.warn(f'{path}: surface shader {shader.GetPath()} is "{shader.GetShaderId()}", '
+                      'not UsdPreviewSurface; using displayColor/grey')
+            return None
+        return self._preview_surface(path, shader)
+
+    def _course(self, prim: Usd.Prim, model: int) -> Material:
+        def get(name, default):
+            attr = prim.GetAttribute(f'rtc:{name}')
+            value = attr.Get(self.time) if attr else None
+            return default if value is None else value
+
+        def colour(name, default):
+            return tuple(float(x) for x in get(name, default))
+
+        m = Material(path=str(prim.GetPath()), model=model,
+                     diffuse=colour('diffuse', (0.0, 0.0, 0.0)), specular=colour('specular', (0.0, 0.0, 0.0)),
+                     exponent=float(get('phongExp', 0.0)), mirror_coef=float(get('mirrorCoef', 0.0)),
+                     roughness=float(get('roughness', 0.0)), ior=float(get('refractiveIndex', 1.5)),
+                     attenuation=colour('attenuationCoef', (1.0, 1.0, 1.0)))
+        for name, field in (('diffuseTexture', 'diffuse_texture'), ('specularTexture', 'specular_texture')):
+            asset = get(name, None)
+            if asset is not None and asset.path:
+                setattr(m, field, self.texture(asset, 'auto', 'repeat', 'repeat',
+                                                (1.0,) * 4, (0.0,) * 4, f'{prim.GetPath()}.rtc:{name}'))
+        return m
+
+    def _preview_surface(self, path: str, shader: UsdShade.Shader) -> Material:
+        m = Material(path=path, model=PREVIEW_SURFACE)
+        for name, field, kind in (
+                ('diffuseColor', 'diffuse', 'colour'), ('specularColor', 'specular', 'colour'),
+                ('emissiveColor', 'emission', 'colour'), ('roughness', 'roughness', float),
+                ('metallic', 'metallic', float), ('ior', 'ior', float), ('opacity', 'opacity', float),
+                ('clearcoat', 'clearcoat', float), ('clearcoatRoughness', 'clearcoat_roughness', float),
+                ('useSpecularWorkflow', 'use_specular_workflow', bool)):
+            value, source = self._input(shader, name)
+            if source is not None:
+                if name in _TEXTURE_FIELDS and source.GetShaderId() == 'UsdUVTexture':
+                    index, fallback = self._uv_texture(source)
+                    if index >= 0:
+                        setattr(m, _TEXTURE_FIELDS[name], index)
+                        setattr(m, field, (1.0, 1.0, 1.0))
+                    else:
+                        setattr(m, field, fallback)
+                else:
+                    self.warn(f'{path}: inputs:{name} is driven by {source.GetShaderId() or "a shader"} '
+                              f'({source.GetPath()}), which is not supported; using its default')
+                continue
+            if value is None:
+                continue
+            if kind == 'colour':
+                setattr(m, field, tuple(float(x) for x in value))
+            else:
+                setattr(m, field, kind(value))
+        return m
+
+    def _input(self, shader: UsdShade.Shader, name: str):
+        """(constant value, None) or (None, source shader) for a shader input, following
+        connections through material interface inputs; (None, None) when unauthored."""
+        inp = shader.GetInput(name)
+        if not inp:
+            return None, None
+        for attr in inp.GetValueProducingAttributes():
+            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+                return None, UsdShade.Shader(attr.GetPrim())
+            return attr.Get(self.time), None
+        return None, None
+
+    # ------------------------------------------------------------------ textures
+    def _uv_texture(self, tex: UsdShade.Shader) -> tuple[int, tuple]:
+        """(texture index or -1, constant colour to use when the file cannot be read)."""
+        def value(name, default):
+            v, _ = self._input(tex, name)
+            return default if v is None else v
+        fallback = tuple(float(x) for x in value('fallback', (0.0, 0.0, 0.0, 1.0)))[:3]
+        asset = value('file', None)
+        if asset is None or not asset.path:
+            self.warn(f'{tex.GetPath()}: UsdUVTexture without inputs:file; using its fallback')
+            return -1, fallback
+        wraps = []
+        for name in ('wrapS', 'wrapT'):
+            w = str(value(name, 'useMetadata'))
+            wraps.append(w if w in _WRAPS else 'repeat')
+        index = self.texture(asset, str(value('sourceColorSpace', 'auto')), *wraps,
+                              tuple(float(x) for x in value('scale', (1.0,) * 4)),
+                              tuple(float(x) for x in value('bias', (0.0,) * 4)), str(tex.GetPath()))
+        return index, fallback
+
+    def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,
+                 scale: tuple, bias: tuple, owner: str) -> int:
+        """Index of a texture (file decoded once per colour space), -1 if it cannot be read."""
+        resolved = asset.resolvedPath
+        if not resolved:
+            self.warn(f'{owner}: texture "{asset.path}" not found')
+            return -1
+        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias)
+        if key not in self._texture_index:
+            pixels = self._load(resolved, colour_space, owner)
+            self._texture_index[key] = -1
+            if pixels is not None:
+                self.textures.append(Texture(path=resolved, pixels=pixels, wrap_s=wrap_s,
+                                             wrap_t=wrap_t, scale=scale, bias=bias))
+                self._texture_index[key] = len(self.textures) - 1
+        return self._texture_index[key]
+
+    def _load(self, resolved: str, colour_space: str, owner: str) -> np.ndarray | None:
+        key = (resolved, colour_space)
+        if key not in self._pixels:
+            try:
+                self._pixels[key] = read_image(resolved, colour_space)
+            except OSError as exc:
+                self.warn(f'{owner}: cannot read texture {resolved}: {exc}')
+                self._pixels[key] = None
+        return self._pixels[key]
+
+
+def read_image(resolved: str, colour_space: str = 'auto') -> np.ndarray:
+    """Decode an image to float32 (h, w, c) linear values.
+
+    `colour_space` follows UsdUVTexture.sourceColorSpace: 'sRGB' decodes the colour channels,
+    'raw' does not, 'auto' decodes when the file says it is sRGB or, lacking metadata, when it
+    stores 8-bit values.  Files inside a package (``scene.usdz[tex.png]``) are read through Ar."""
+    import OpenImageIO as oiio
+    if resolved.endswith(']') and '[' in resolved:
+        data = Ar.GetResolver().OpenAsset(Ar.ResolvedPath(resolved))
+        if data is None:
+            raise OSError('cannot open packaged asset')
+        suffix = os.path.splitext(resolved[:-1])[1]
+        with tempfile.NamedTemporaryFile(suffix=suffix) as tmp:
+            tmp.write(bytes(data.GetBuffer()))
+            tmp.flush()
+            return read_image(tmp.name, colour_space)
+    inp = oiio.ImageInput.open(resolved)
+    if inp is None:
+        raise OSError(oiio.geterror() or 'unreadable image')
+    try:
+        spec = inp.spec()
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, 'float')
+    finally:
+        inp.close()
+    if pixels is None:
+        raise OSError('no pixel data')
+    pixels = np.asarray(pixels, np.float32).reshape(spec.height, spec.width, spec.nchannels)
+    tagged = str(spec.getattribute('oiio:ColorSpace') or '').lower()
+    if colour_space == 'sRGB' or (colour_space == 'auto' and (
+            tagged.startswith('srgb') or (not tagged and spec.format == oiio.UINT8))):
+        colour = min(3, spec.nchannels if spec.nchannels != 2 else 1)
+        pixels[..., :colour] = srgb_to_linear(pixels[..., :colour])
+    return np.ascontiguousarray(pixels)
