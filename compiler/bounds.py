@@ -1,0 +1,79 @@
+"""Scene-level geometry facts the writer needs: transform sanity and the world bounding box.
+
+Both are computed batched over all shapes and placements (composition through
+`transforms.compose_many`), so scenes with 10^5 placements stay fast.
+"""
+from __future__ import annotations
+
+from typing import Optional
+
+import numpy as np
+
+from .diagnostics import Diagnostics
+from .obj import ObjMesh
+from .scene import Box, Cylinder, Geometry, MeshFile, Scene, Sphere, Triangle
+from .transforms import compose_many, singular_mask
+
+
+def check_transforms(scene: Scene, diags: Diagnostics) -> None:
+    """Error (naming the <transform> line) for every transform that is singular or not finite."""
+    transforms = [t for obj in (*scene.shapes, *scene.placements) for t in obj.motion.samples]
+    transforms += [p.transform for p in scene.used_prototypes() if p.transform is not None]
+    if not transforms:
+        return
+    matrices = compose_many([t.ops for t in transforms])
+    finite = np.isfinite(matrices).all(axis=(1, 2))
+    singular = np.zeros(len(transforms), bool)
+    singular[finite] = singular_mask(matrices[finite])
+    for t, ok, sing in zip(transforms, finite, singular):
+        if not ok:
+            diags.error("the transform is not finite (its product overflows)", t.line, "transform")
+        elif sing:
+            diags.error("the transform is singular (a zero scale or collapsed axes): it has no inverse",
+                        t.line, "transform")
+
+
+def local_box(geometry: Geometry, meshes: dict) -> tuple[np.ndarray, np.ndarray]:
+    """Axis-aligned box of the geometry in its own space."""
+    if isinstance(geometry, Sphere):
+        c, r = np.array(geometry.center), geometry.radius
+        return c - r, c + r
+    if isinstance(geometry, Box):
+        return np.array(geometry.min), np.array(geometry.max)
+    if isinstance(geometry, Triangle):
+        v = np.array([geometry.v0, geometry.v1, geometry.v2])
+        return v.min(axis=0), v.max(axis=0)
+    if isinstance(geometry, Cylinder):
+        c = np.array(geometry.center)
+        half = np.array([geometry.radius, geometry.height / 2, geometry.radius])
+        return c - half, c + half
+    mesh: ObjMesh = meshes[geometry.path]
+    return mesh.bounds()
+
+
+def world_bounds(scene: Scene, meshes: dict) -> Optional[tuple[np.ndarray, np.ndarray]]:
+    """World-space box around everything rendered (first motion sample), or None if empty."""
+    groups: dict[int, tuple[np.ndarray, list]] = {}
+    for shape in scene.shapes:
+        groups.setdefault(id(shape), (_corners(shape.geometry, meshes), []))[1].append(
+            (shape.motion.samples[0].ops if shape.motion.samples else ()))
+    for placement in scene.placements:
+        proto = placement.prototype
+        if id(proto) not in groups:
+            corners = _corners(proto.geometry, meshes)
+            if proto.transform is not None:
+                corners = corners @ proto.transform.matrix().T
+            groups[id(proto)] = (corners, [])
+        groups[id(proto)][1].append(placement.motion.samples[0].ops if placement.motion.samples else ())
+    lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    for corners, op_lists in groups.values():
+        world = np.einsum("nij,kj->nki", compose_many(op_lists), corners)[..., :3]
+        lo = np.minimum(lo, world.min(axis=(0, 1)))
+        hi = np.maximum(hi, world.max(axis=(0, 1)))
+    return (lo, hi) if np.all(lo <= hi) else None
+
+
+def _corners(geometry: Geometry, meshes: dict) -> np.ndarray:
+    lo, hi = local_box(geometry, meshes)
+    pick = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
+    return np.hstack([np.where(pick, hi, lo), np.ones((8, 1))])
