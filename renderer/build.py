@@ -1,0 +1,354 @@
+"""SceneDescription -> a two-level Embree scene plus the flat tables the numba kernels shade with.
+
+Precision scheme (see README, "Numerical guarantees"):
+* every container's geometry is re-centred on its own bounding-box centre (float64) before it is
+  rounded to float32 for Embree, so a prototype keeps full float32 precision wherever it is placed;
+* the whole world is expressed relative to the camera position at shutter open (float64), so the
+  float32 numbers Embree sees near the camera are small even when the scene sits 10^6 units from
+  the origin;
+* the kernels keep instance matrices and hit points in float64 and rebuild hit points from the
+  barycentrics on the float32 object-space triangle (independent of the ray length).
+
+Nothing is built for a feature the scene does not use: no normal, UV or texture tables when no
+gprim carries them, one motion step when nothing moves, no sphere geometry when there is none.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import description as D
+from .embree import Device, InstanceGroup
+
+# -- material table layout (float32 columns of SceneData.mat_f)
+MF_KD, MF_KS, MF_EXP, MF_MIRROR, MF_ROUGH, MF_IOR, MF_ATTEN, MF_EMIT, MF_METAL, MF_OPACITY, MF_SPECWF, \
+    MF_CLEARCOAT, MF_CC_ROUGH = 0, 3, 6, 7, 8, 9, 10, 13, 16, 17, 18, 19, 20
+MAT_F_COLS = 21
+# -- material int table (SceneData.mat_i)
+MI_MODEL, MI_DIFFUSE_TEX, MI_SPECULAR_TEX = 0, 1, 2
+MAT_I_COLS = 3
+# -- gprim flags
+GP_HAS_NORMALS, GP_HAS_UVS = 1, 2
+GP_MESH, GP_SPHERE = 0, 1
+# -- light table (SceneData.li_f) columns
+LF_M, LF_RAD, LF_RADIUS, LF_W, LF_H, LF_COS_MAX, LF_AREA = 0, 12, 15, 16, 17, 18, 19
+LI_F_COLS = 20
+# -- texture table (SceneData.tex_i) columns: offset, width, height, channels, wrap_s, wrap_t
+WRAP = {'repeat': 0, 'clamp': 1, 'mirror': 2, 'black': 3}
+
+SceneData = namedtuple('SceneData', [
+    'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off',
+    'tri_v', 'tri_n', 'tri_uv', 'sph',
+    'pr_gp_start', 'pr_geom_off', 'pr_geom_gp',
+    'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
+    'mat_i', 'mat_f',
+    'tex_i', 'tex_f', 'tex_data',
+    'li_type', 'li_f', 'li_tex',
+    'background',
+])
+
+
+@dataclass
+class BuiltScene:
+    """Everything a render needs, owned together (Embree handles live as long as this object)."""
+    device: Device
+    prototypes: list
+    top: object
+    data: SceneData
+    origin: np.ndarray           # float64 (3,): world position subtracted from everything (camera at open)
+    motion_steps: int
+    has_textures: bool
+    has_dome: bool
+    n_instances: int
+
+    @property
+    def handle(self) -> int:
+        return self.top.handle
+
+    def close(self):
+        self.top.close()
+        for p in self.prototypes:
+            p.close()
+        self.device.close()
+
+
+def _similarity_scale(m3: np.ndarray) -> float | None:
+    """Uniform scale s if m3 = s * R (R orthonormal, possibly mirrored), else None."""
+    g = m3.T @ m3
+    s2 = np.trace(g) / 3.0
+    if s2 <= 0 or not np.allclose(g, s2 * np.eye(3), rtol=1e-9, atol=1e-12 * max(s2, 1e-300)):
+        return None
+    return float(np.sqrt(s2))
+
+
+def _container_center(c: D.Container) -> np.ndarray:
+    lo = np.full(3, np.inf)
+    hi = np.full(3, -np.inf)
+    for m in c.meshes:
+        if len(m.points):
+            lo = np.minimum(lo, m.points.min(0))
+            hi = np.maximum(hi, m.points.max(0))
+    for s in c.spheres:
+        ctr = s.matrix[:3, 3]
+        lo = np.minimum(lo, ctr)
+        hi = np.maximum(hi, ctr)
+    return np.where(np.isfinite(lo), 0.5 * (lo + hi), 0.0)
+
+
+class _Tables:
+    """Accumulates per-gprim rows while containers are converted."""
+
+    def __init__(self):
+        self.kind, self.off, self.flags, self.material, self.n_off, self.uv_off = [], [], [], [], [], []
+        self.tri_v, self.tri_n, self.tri_uv, self.sph = [], [], [], []
+        self.n_tri = self.n_nrm = self.n_uv = 0
+
+    def add_mesh(self, v32: np.ndarray, tris: np.ndarray, m: D.Mesh) -> None:
+        flags = 0
+        self.kind.append(GP_MESH)
+        self.off.append(self.n_tri)
+        self.material.append(m.material)
+        self.tri_v.append(v32[tris])
+        if m.normals is not None:
+            flags |= GP_HAS_NORMALS
+            self.n_off.append(self.n_nrm)
+            self.tri_n.append(np.asarray(m.normals, np.float32))
+            self.n_nrm += len(tris)
+        else:
+            self.n_off.append(-1)
+        if m.uvs is not None:
+            flags |= GP_HAS_UVS
+            self.uv_off.append(self.n_uv)
+            self.tri_uv.append(np.asarray(m.uvs, np.float32))
+            self.n_uv += len(tris)
+        else:
+            self.uv_off.append(-1)
+        self.flags.append(flags)
+        self.n_tri += len(tris)
+
+    def add_sphere(self, center_radius: np.ndarray | None, material: int) -> None:
+        """A sphere slot; `center_radius` None for a sphere moved to the unit-sphere container."""
+        self.kind.append(GP_SPHERE)
+        self.material.append(material)
+        self.flags.append(GP_HAS_UVS)
+        self.n_off.append(-1)
+        self.uv_off.append(-1)
+        if center_radius is None:
+            self.off.append(-1)
+        else:
+            self.off.append(len(self.sph))
+            self.sph.append(center_radius)
+
+
+def _cat(parts, shape, dtype):
+    return np.ascontiguousarray(np.concatenate(parts), dtype) if parts else np.zeros(shape, dtype)
+
+
+def _material_tables(materials: list[D.Material]):
+    """(mat_i, mat_f); the last row is the default material for unbound gprims."""
+    mats = [*materials, D.Material(path='<default>', model=D.PREVIEW_SURFACE, diffuse=(0.18, 0.18, 0.18),
+                                   roughness=0.5, use_specular_workflow=True)]
+    mat_i = np.zeros((len(mats), MAT_I_COLS), np.int32)
+    mat_f = np.zeros((len(mats), MAT_F_COLS), np.float32)
+    for k, m in enumerate(mats):
+        mat_i[k] = (m.model, m.diffuse_texture, m.specular_texture)
+        mat_f[k, MF_KD:MF_KD + 3] = m.diffuse
+        mat_f[k, MF_KS:MF_KS + 3] = m.specular
+        mat_f[k, MF_EXP] = m.exponent
+        mat_f[k, MF_MIRROR] = m.mirror_coef
+        mat_f[k, MF_ROUGH] = m.roughness
+        mat_f[k, MF_IOR] = m.ior
+        mat_f[k, MF_ATTEN:MF_ATTEN + 3] = m.attenuation
+        mat_f[k, MF_EMIT:MF_EMIT + 3] = m.emission
+        mat_f[k, MF_METAL] = m.metallic
+        mat_f[k, MF_OPACITY] = m.opacity
+        mat_f[k, MF_SPECWF] = 1.0 if m.use_specular_workflow else 0.0
+        mat_f[k, MF_CLEARCOAT] = m.clearcoat
+        mat_f[k, MF_CC_ROUGH] = m.clearcoat_roughness
+    return mat_i, mat_f
+
+
+def _texture_tables(textures: list[D.Texture]):
+    tex_i = np.zeros((max(len(textures), 1), 6), np.int64)
+    tex_f = np.zeros((max(len(textures), 1), 8), np.float32)
+    chunks, off = [], 0
+    for k, t in enumerate(textures):
+        px = np.ascontiguousarray(t.pixels, np.float32)
+        if px.ndim == 2:
+            px = px[:, :, None]
+        h, w, c = px.shape
+        tex_i[k] = (off, w, h, c, WRAP.get(t.wrap_s, 0), WRAP.get(t.wrap_t, 0))
+        tex_f[k, :4] = t.scale
+        tex_f[k, 4:] = t.bias
+        chunks.append(px.ravel())
+        off += px.size
+    return tex_i, tex_f, (np.concatenate(chunks) if chunks else np.zeros(1, np.float32))
+
+
+def _light_tables(lights: list[D.Light], origin: np.ndarray):
+    nl = len(lights)
+    li_type = np.full(max(nl, 1), -1, np.int32)
+    li_f = np.zeros((max(nl, 1), LI_F_COLS), np.float64)
+    li_tex = np.full(max(nl, 1), -1, np.int32)
+    for k, l in enumerate(lights):
+        m = np.array(l.matrix, np.float64)
+        m3 = m[:3, :].copy()
+        m3[:, 3] -= origin
+        li_type[k] = l.type
+        li_f[k, LF_M:LF_M + 12] = m3.ravel()
+        li_f[k, LF_RAD:LF_RAD + 3] = l.radiance
+        li_f[k, LF_RADIUS] = l.radius
+        li_f[k, LF_W] = l.width
+        li_f[k, LF_H] = l.height
+        li_f[k, LF_COS_MAX] = np.cos(np.radians(0.5 * l.angle))
+        if l.type == D.RECT:
+            li_f[k, LF_AREA] = np.linalg.norm(np.cross(m[:3, 0] * l.width, m[:3, 1] * l.height))
+        elif l.type == D.DISK:
+            li_f[k, LF_AREA] = np.pi * np.linalg.norm(np.cross(m[:3, 0] * l.radius, m[:3, 1] * l.radius))
+        elif l.type == D.SPHERE:
+            r = l.radius * np.cbrt(abs(np.linalg.det(m[:3, :3])))
+            li_f[k, LF_RADIUS] = r
+            li_f[k, LF_AREA] = 4 * np.pi * r * r
+        elif l.type == D.DOME:
+            li_tex[k] = l.texture
+    return li_type, li_f, li_tex
+
+
+def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
+    """Build Embree scenes (one per container + the top level) and the shading tables."""
+    inst = desc.instances
+    origin = np.array(desc.camera.matrix[:3, 3], np.float64)
+    containers = list(desc.containers)
+    tables = _Tables()
+    dev = Device(threads=threads)
+    protos, centers, pr_gp_start, pr_geom = [], [], [], []
+    ellipsoids = []                                   # (container index, sphere index)
+
+    for ci, c in enumerate(containers):
+        ctr = _container_center(c)
+        centers.append(ctr)
+        pr_gp_start.append(len(tables.kind))
+        e_meshes, e_spheres, geom_to_gp = [], [], []
+        for m in c.meshes:
+            v32 = (np.asarray(m.points, np.float64) - ctr).astype(np.float32)
+            tris = np.ascontiguousarray(m.triangles, np.uint32)
+            geom_to_gp.append(len(tables.kind))
+            tables.add_mesh(v32, tris, m)
+            e_meshes.append((v32, tris))
+        for si, s in enumerate(c.spheres):
+            scale = _similarity_scale(s.matrix[:3, :3])
+            if scale is None:                         # an ellipsoid: placed as an instance below
+                ellipsoids.append((ci, si))
+                tables.add_sphere(None, s.material)
+                continue
+            cr = np.array([*(s.matrix[:3, 3] - ctr), s.radius * scale], np.float64)
+            geom_to_gp.append(len(tables.kind))
+            tables.add_sphere(cr, s.material)
+            e_spheres.append(cr[None, :].astype(np.float32))
+        protos.append(dev.prototype_scene(e_meshes, e_spheres))
+        pr_geom.append(geom_to_gp)
+
+    rows_proto = [np.asarray(inst.container, np.int64)]
+    rows_world = [np.asarray(inst.matrices, np.float64)]
+    rows_set = [np.asarray(inst.material_set, np.int64)]
+    material_sets = [tuple(int(v) for v in s) for s in inst.material_sets]
+
+    if ellipsoids:                                    # one shared unit-sphere container
+        unit = len(protos)
+        centers.append(np.zeros(3))
+        pr_gp_start.append(len(tables.kind))
+        pr_geom.append([len(tables.kind)])
+        tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
+        protos.append(dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
+        set_of = {}
+        for ci, si in ellipsoids:
+            sel = np.nonzero(rows_proto[0] == ci)[0]
+            if not len(sel):
+                continue
+            s = containers[ci].spheres[si]
+            slot = len(containers[ci].meshes) + si
+            per_set = np.array([ms[slot] if slot < len(ms) else -1 for ms in material_sets] or [-1], np.int64)
+            mats = per_set[rows_set[0][sel]] if material_sets else np.full(len(sel), -1)
+            mats = np.where(mats >= 0, mats, s.material)
+            uniq, inv = np.unique(mats, return_inverse=True)
+            ids = []
+            for mv in uniq:
+                key = (int(mv),)
+                if key not in set_of:
+                    set_of[key] = len(material_sets)
+                    material_sets.append(key)
+                ids.append(set_of[key])
+            rows_proto.append(np.full(len(sel), unit, np.int64))
+            rows_world.append(rows_world[0][sel] @ (s.matrix @ np.diag([s.radius] * 3 + [1.0])))
+            rows_set.append(np.asarray(ids, np.int64)[inv])
+
+    in_proto = np.concatenate(rows_proto)
+    world = np.concatenate(rows_world, axis=0) if rows_world[0].ndim == 4 else rows_world[0]
+    set_rows = np.concatenate(rows_set)
+    K = int(world.shape[1]) if world.ndim == 4 and len(world) else 1
+
+    # placement matrices act on re-centred containers (M' = M T(centre)), camera-relative
+    ctr_arr = np.array(centers, np.float64).reshape(-1, 3)
+    xf = np.zeros((len(in_proto), K, 3, 4), np.float64)
+    if len(in_proto):
+        xf[:] = world[:, :, :3, :]
+        xf[:, :, :, 3] += np.einsum('rkij,rj->rki', world[:, :, :3, :3], ctr_arr[in_proto])
+        xf[:, :, :, 3] -= origin
+
+    # flat material sets; -1 offset = placement binds nothing (use the gprims' own materials)
+    set_off = np.full(len(material_sets) + 1, -1, np.int64)
+    flat = []
+    for k, s in enumerate(material_sets):
+        if any(v >= 0 for v in s):
+            set_off[k] = len(flat)
+            flat.extend(s)
+    in_matset = set_off[set_rows] if len(set_rows) else np.zeros(0, np.int64)
+
+    # top level: static placements in one instance array, moving ones in another (K time steps)
+    moving = np.zeros(len(in_proto), bool)
+    if K > 1 and len(xf):
+        moving = np.any(xf != xf[:, :1], axis=(1, 2, 3))
+    groups, order = [], []
+    for rows, steps in ((np.nonzero(~moving)[0], 1), (np.nonzero(moving)[0], K)):
+        if len(rows):
+            groups.append(InstanceGroup(in_proto[rows].astype(np.uint32),
+                                        np.ascontiguousarray(xf[rows, :steps].transpose(1, 0, 2, 3), np.float32)))
+            order.append(rows)
+    top = dev.top_scene(protos, groups)
+    perm = np.concatenate(order) if order else np.zeros(0, np.int64)
+    gids = list(top.group_geom_ids)
+    grp_base = np.full(max(gids, default=0) + 1, -1, np.int64)
+    start = 0
+    for gid, rows in zip(gids, order):
+        grp_base[gid] = start
+        start += len(rows)
+
+    mat_i, mat_f = _material_tables(desc.materials)
+    tex_i, tex_f, tex_data = _texture_tables(desc.textures)
+    li_type, li_f, li_tex = _light_tables(desc.lights, origin)
+    geom_off = np.cumsum([0] + [len(g) for g in pr_geom]).astype(np.int64)
+    gp_material = np.array(tables.material, np.int32)
+    gp_material[gp_material < 0] = len(mat_i) - 1       # unbound -> default material
+
+    data = SceneData(
+        gp_kind=np.array(tables.kind, np.int32), gp_off=np.array(tables.off, np.int64),
+        gp_flags=np.array(tables.flags, np.int32), gp_material=gp_material,
+        gp_n_off=np.array(tables.n_off, np.int64), gp_uv_off=np.array(tables.uv_off, np.int64),
+        tri_v=_cat(tables.tri_v, (1, 3, 3), np.float32), tri_n=_cat(tables.tri_n, (1, 3, 3), np.float32),
+        tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32),
+        sph=np.array(tables.sph, np.float64).reshape(-1, 4) if tables.sph else np.zeros((1, 4)),
+        pr_gp_start=np.array(pr_gp_start, np.int64), pr_geom_off=geom_off,
+        pr_geom_gp=np.array([g for gs in pr_geom for g in gs] or [0], np.int64),
+        in_proto=np.ascontiguousarray(in_proto[perm], np.int32),
+        in_xf=np.ascontiguousarray(xf[perm]) if len(perm) else np.zeros((1, K, 3, 4)),
+        in_matset=np.ascontiguousarray(in_matset[perm], np.int64) if len(perm) else np.zeros(1, np.int64),
+        matset=np.array(flat or [-1], np.int32), grp_base=grp_base,
+        mat_i=mat_i, mat_f=mat_f, tex_i=tex_i, tex_f=tex_f, tex_data=tex_data,
+        li_type=li_type, li_f=li_f, li_tex=li_tex,
+        background=np.array(desc.background, np.float64),
+    )
+    return BuiltScene(device=dev, prototypes=protos, top=top, data=data, origin=origin, motion_steps=K,
+                      has_textures=bool(desc.textures), has_dome=bool(np.any(li_type == D.DOME)),
+                      n_instances=len(perm))

@@ -1,0 +1,123 @@
+"""Cameras: the USD camera model (perspective / orthographic, thin lens) as a small float64 table and
+one numba function that turns film and lens samples into a ray.
+
+The film rectangle follows `UsdGeom.Camera`: apertures and focal length in scene units, the image
+fitted to the aperture with UsdRender's default `aspectRatioConformPolicy = expandAperture` (the
+aperture grows in one direction so that no part of the authored frustum is cropped).  The thin-lens
+model (Cook et al. 1984; pbrt-v4 `PerspectiveCamera`) puts the plane of focus at `focus_distance`
+along the view axis: a lens sample (u, v) moves the ray origin on a disk of radius `lens_radius` and
+the ray passes through the pinhole ray's point on the focal plane.
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+from . import description as D
+from .vecmath import normalize
+
+_JIT = dict(cache=True, nogil=True, inline='always')
+
+# table layout
+C_M = 0            # 12: camera-to-world 3x4 at shutter open (camera-relative world: translation 0)
+C_M1 = 12          # 12: camera-to-world at shutter close (== C_M when the camera does not move)
+C_ORTHO = 24
+C_HALF_W = 25      # half film width / focal length (perspective) or half width (orthographic)
+C_HALF_H = 26
+C_OFF_X = 27
+C_OFF_Y = 28
+C_LENS = 29
+C_FOCUS = 30
+C_NEAR = 31
+C_FAR = 32
+C_MOVING = 33
+CAM_COLS = 34
+
+
+def camera_table(cam: D.Camera, width: int, height: int, origin: np.ndarray, *,
+                 depth_of_field: bool = True, motion_blur: bool = True) -> np.ndarray:
+    """Pack `cam` for an image of width x height pixels, relative to world position `origin`."""
+    t = np.zeros(CAM_COLS, np.float64)
+    m0 = np.array(cam.matrix, np.float64)
+    m1 = m0 if (cam.motion is None or not motion_blur) else np.array(cam.motion[-1], np.float64)
+    if cam.motion is not None and motion_blur:
+        m0 = np.array(cam.motion[0], np.float64)
+    for k, m in ((C_M, m0), (C_M1, m1)):
+        mm = m[:3, :].copy()
+        mm[:, 3] -= origin
+        t[k:k + 12] = mm.ravel()
+    t[C_MOVING] = 0.0 if np.array_equal(m0, m1) else 1.0
+    hap, vap = float(cam.horizontal_aperture), float(cam.vertical_aperture)
+    if hap <= 0 or vap <= 0:
+        hap, vap = 2.0955, 1.5291
+    image_aspect = width / height
+    if image_aspect >= hap / vap:        # expandAperture: grow the height or the width
+        hap = vap * image_aspect
+    else:
+        vap = hap / image_aspect
+    ortho = cam.projection == 'orthographic'
+    t[C_ORTHO] = 1.0 if ortho else 0.0
+    f = max(float(cam.focal_length), 1e-12)
+    scale = 1.0 if ortho else 1.0 / f
+    t[C_HALF_W] = 0.5 * hap * scale
+    t[C_HALF_H] = 0.5 * vap * scale
+    t[C_OFF_X] = cam.horizontal_aperture_offset * scale
+    t[C_OFF_Y] = cam.vertical_aperture_offset * scale
+    use_lens = depth_of_field and cam.lens_radius > 0 and not ortho and cam.focus_distance > 0
+    t[C_LENS] = cam.lens_radius if use_lens else 0.0
+    t[C_FOCUS] = cam.focus_distance if use_lens else 1.0
+    t[C_NEAR] = max(cam.clip_near, 0.0)
+    t[C_FAR] = cam.clip_far if math.isfinite(cam.clip_far) else np.inf
+    return t
+
+
+@nb.njit(**_JIT)
+def _concentric_disk(u, v):
+    """Shirley-Chiu concentric map of [0,1)^2 onto the unit disk (keeps stratification)."""
+    a = 2.0 * u - 1.0
+    b = 2.0 * v - 1.0
+    if a == 0.0 and b == 0.0:
+        return 0.0, 0.0
+    if abs(a) > abs(b):
+        r = a
+        phi = (math.pi / 4.0) * (b / a)
+    else:
+        r = b
+        phi = (math.pi / 2.0) - (math.pi / 4.0) * (a / b)
+    return r * math.cos(phi), r * math.sin(phi)
+
+
+@nb.njit(**_JIT)
+def generate_ray(cam, fx, fy, lens_u, lens_v, time):
+    """Ray for film position (fx, fy) in [0,1]^2 (x right, y down, as image pixels), a lens sample and
+    a shutter time in [0,1].  Returns origin and unit direction in camera-relative world space."""
+    sx = (2.0 * fx - 1.0) * cam[C_HALF_W] + cam[C_OFF_X]
+    sy = (1.0 - 2.0 * fy) * cam[C_HALF_H] + cam[C_OFF_Y]
+    if cam[C_ORTHO] != 0.0:
+        o = (sx, sy, 0.0)
+        d = (0.0, 0.0, -1.0)
+    else:
+        d = normalize((sx, sy, -1.0))
+        o = (0.0, 0.0, 0.0)
+        if cam[C_LENS] > 0.0:
+            lx, ly = _concentric_disk(lens_u, lens_v)
+            lx *= cam[C_LENS]
+            ly *= cam[C_LENS]
+            tf = cam[C_FOCUS] / -d[2]          # focal plane z = -focus
+            pf = (d[0] * tf, d[1] * tf, d[2] * tf)
+            o = (lx, ly, 0.0)
+            d = normalize((pf[0] - lx, pf[1] - ly, pf[2]))
+    # camera -> world (lerp the two shutter matrices when the camera moves)
+    a = time if cam[C_MOVING] != 0.0 else 0.0
+    wo = (_m(cam, 0, a) * o[0] + _m(cam, 1, a) * o[1] + _m(cam, 2, a) * o[2] + _m(cam, 3, a),
+          _m(cam, 4, a) * o[0] + _m(cam, 5, a) * o[1] + _m(cam, 6, a) * o[2] + _m(cam, 7, a),
+          _m(cam, 8, a) * o[0] + _m(cam, 9, a) * o[1] + _m(cam, 10, a) * o[2] + _m(cam, 11, a))
+    wd = normalize((_m(cam, 0, a) * d[0] + _m(cam, 1, a) * d[1] + _m(cam, 2, a) * d[2],
+                    _m(cam, 4, a) * d[0] + _m(cam, 5, a) * d[1] + _m(cam, 6, a) * d[2],
+                    _m(cam, 8, a) * d[0] + _m(cam, 9, a) * d[1] + _m(cam, 10, a) * d[2]))
+    return wo, wd
+
+
+@nb.njit(**_JIT)
+def _m(cam, i, a):
+    return (1.0 - a) * cam[C_M + i] + a * cam[C_M1 + i]

@@ -1,0 +1,246 @@
+"""Cook-style distribution ray tracing (Cook, Porter, Carpenter 1984).
+
+Each camera sample is one point of the whole integrand domain: pixel position (reconstruction
+filter), lens position (depth of field), time (motion blur), and per bounce one 2D sample per light
+(soft shadows), one 2D sample for the glossy / GGX direction and one for the discrete choices
+(Fresnel reflect-or-refract, transparency).  The sampler maps (pixel, sample index, dimension) to
+stratified or low-discrepancy numbers; dimensions are decorrelated by the sampler's per-pair
+scrambling.  Light transport is Whitted's plus Cook's distributions: direct light from every light
+at every hit, and one specular continuation (mirror, glossy, glaze, refraction) per bounce, chosen
+stochastically where there are several, up to `max_depth` bounces.  Diffuse interreflection is not
+simulated (as in the course).
+
+The kernel is a megakernel: one numba-parallel loop over image tiles, each thread tracing whole
+paths with rtcIntersect1 / rtcOccluded1 on the two-level Embree scene.  Tiles are visited in a
+scattered order so that both threads get a mix of cheap and expensive regions.  Every random
+number is a pure function of (seed, pixel, sample index, dimension), so the image is bit-identical
+for a given seed whatever the thread count, and passes of samples add up exactly to one render.
+"""
+import math
+
+import numba as nb
+import numpy as np
+
+from . import description as D
+from .build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
+from .cameras import C_FAR, C_LENS, C_NEAR, generate_ray
+from .filters import filter_offset
+from .lights import escaped_radiance, sample_light
+from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
+                        refract, sample_ggx_h, smith_g, _schlick)
+from .samplers import DIM_BOUNCE0, DIM_LENS, DIM_PIXEL, DIM_TIME, sample_1d, sample_2d
+from .shapes import surface
+from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, TFAR, U, V, intersect1, new_ray_buffer,
+                    occluded1)
+from .vecmath import dot, normalize, offset_origin, onb, reflect
+
+# counters (per tile): rays by kind, and samples dropped as non-finite
+RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES = 0, 1, 2, 3
+N_COUNTERS = 4
+TILE = 8
+SHADOW_EPS = 1e-5
+
+
+@nb.njit(cache=True, nogil=True)
+def _dims_per_bounce(n_lights):
+    return n_lights + 2
+
+
+@nb.njit(cache=True, nogil=True)
+def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts):
+    """Radiance arriving at the camera along the ray (o, d) at shutter time `time`."""
+    n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
+    per = _dims_per_bounce(n_lights)
+    Lr = 0.0
+    Lg = 0.0
+    Lb = 0.0
+    tr = 1.0
+    tg = 1.0
+    tb = 1.0
+    # Beer attenuation of the medium the ray travels in (1 = vacuum)
+    ar = 1.0
+    ag = 1.0
+    ab = 1.0
+    tnear = cam[C_NEAR]
+    tfar = cam[C_FAR]
+    ox, oy, oz = o
+    dx, dy, dz = d
+    for depth in range(max_depth + 1):
+        hit = intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
+        counts[RAYS_CAMERA if depth == 0 else RAYS_SECONDARY] += 1
+        dvec = (float(dx), float(dy), float(dz))
+        if not hit:
+            e = escaped_radiance(S, dvec)
+            Lr += tr * e[0]
+            Lg += tg * e[1]
+            Lb += tb * e[2]
+            break
+        t = float(f[TFAR])
+        if ar != 1.0 or ag != 1.0 or ab != 1.0:
+            tr *= ar ** t
+            tg *= ag ** t
+            tb *= ab ** t
+        p, ng, ns, st, g, mat = surface(S, scene, u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID],
+                                        float(f[U]), float(f[V]), (float(ox), float(oy), float(oz)),
+                                        dvec, t, time, m, m32)
+        model = S.mat_i[mat, MI_MODEL]
+        front = dot(ng, dvec) < 0.0
+        if not front:
+            ng = (-ng[0], -ng[1], -ng[2])
+            ns = (-ns[0], -ns[1], -ns[2])
+        if dot(ns, dvec) > 0.0:            # interpolated normal facing away: use the true one
+            ns = ng
+        wo = (-dvec[0], -dvec[1], -dvec[2])
+        kd, ks = colors(S, mat, st)
+        base = DIM_BOUNCE0 + depth * per
+        mf = S.mat_f
+        # ---- transparency (UsdPreviewSurface opacity): pass straight through with prob. 1 - opacity
+        if model == D.PREVIEW_SURFACE:
+            opacity = float(mf[mat, MF_OPACITY])
+            if opacity < 1.0:
+                if sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= opacity:
+                    ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]))
+                    tnear = 0.0
+                    tfar = np.inf
+                    continue
+            Lr += tr * mf[mat, MF_EMIT]
+            Lg += tg * mf[mat, MF_EMIT + 1]
+            Lb += tb * mf[mat, MF_EMIT + 2]
+        # ---- direct light, one sample per light (soft shadows from area lights)
+        if has_diffuse_lobe(model):
+            po = offset_origin(p, ng)
+            for k in range(n_lights):
+                u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
+                wi, dist, E = sample_light(S, k, p, ns, u1, u2)
+                if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
+                    continue
+                if dot(wi, ng) <= 0.0:
+                    continue
+                c = direct(S, mat, kd, ks, ns, wo, wi, E)
+                if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
+                    continue
+                if model != D.COOL_TO_WARM:      # Gooch tone shading is unshadowed
+                    counts[RAYS_SHADOW] += 1
+                    smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
+                    if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
+                        continue
+                Lr += tr * c[0]
+                Lg += tg * c[1]
+                Lb += tb * c[2]
+        if depth == max_depth:
+            break
+        # ---- one specular continuation
+        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        if model == D.DIELECTRIC:
+            ior = float(mf[mat, MF_IOR])
+            eta = ior if front else 1.0 / ior
+            cos_i = -dot(dvec, ns)
+            F, cos_t = fresnel_dielectric(cos_i, eta)
+            uc = sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1)
+            if uc < F:
+                nd = reflect(dvec, ns)
+                ox, oy, oz = offset_origin(p, ng)
+            else:
+                nd = refract(dvec, ns, eta, cos_i, cos_t)
+                ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]))
+                if front:                        # entering the medium
+                    ar = float(mf[mat, MF_ATTEN])
+                    ag = float(mf[mat, MF_ATTEN + 1])
+                    ab = float(mf[mat, MF_ATTEN + 2])
+                else:
+                    ar = 1.0
+                    ag = 1.0
+                    ab = 1.0
+            dx, dy, dz = nd
+        elif model == D.PREVIEW_SURFACE:
+            diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
+            tt, bb = onb(ns)
+            h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
+            nd = reflect(dvec, h)
+            nv = dot(ns, wo)
+            nl = dot(ns, nd)
+            nh = dot(ns, h)
+            vh = dot(wo, h)
+            if nl <= 0.0 or nv <= 0.0 or nh <= 0.0 or vh <= 0.0 or dot(nd, ng) <= 0.0:
+                break
+            gw = smith_g(nl, nv, alpha) * vh / (nh * nv)
+            wr = _schlick(f0[0], f90[0], vh) * gw
+            wg = _schlick(f0[1], f90[1], vh) * gw
+            wb = _schlick(f0[2], f90[2], vh) * gw
+            # Russian roulette on the continuation weight keeps rough dielectrics cheap
+            q = min(1.0, max(wr, max(wg, wb)))
+            if q <= 0.0 or sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= q:
+                break
+            tr *= wr / q
+            tg *= wg / q
+            tb *= wb / q
+            ox, oy, oz = offset_origin(p, ng)
+            dx, dy, dz = nd
+        else:
+            w = mirror_weight(S, mat, model, ks)
+            if w[0] <= 0.0 and w[1] <= 0.0 and w[2] <= 0.0:
+                break
+            nd = reflect(dvec, ns)
+            rough = float(mf[mat, MF_ROUGH])
+            if rough > 0.0 and model == D.BLINN_PHONG_MIRRORED:
+                # the course's glossy reflection: perturb r on a square of side `roughness`
+                tt, bb = onb(nd)
+                a = rough * (g1 - 0.5)
+                b = rough * (g2 - 0.5)
+                nd = normalize((nd[0] + a * tt[0] + b * bb[0], nd[1] + a * tt[1] + b * bb[1],
+                                nd[2] + a * tt[2] + b * bb[2]))
+            if dot(nd, ng) <= 0.0:
+                break
+            tr *= w[0]
+            tg *= w[1]
+            tb *= w[2]
+            ox, oy, oz = offset_origin(p, ng)
+            dx, dy, dz = nd
+        tnear = 0.0
+        tfar = np.inf
+        if tr == 0.0 and tg == 0.0 and tb == 0.0:
+            break
+    return Lr, Lg, Lb
+
+
+@nb.njit(parallel=True, cache=True, nogil=True)
+def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, max_depth,
+                use_lens, use_time, accum, counters):
+    """Add samples [s0, s1) of every pixel to `accum` (height, width, 3) float64.
+    counters: int64 (n_tiles, N_COUNTERS), one row per tile (no shared writes)."""
+    ntx = (width + TILE - 1) // TILE
+    nty = (height + TILE - 1) // TILE
+    ntiles = ntx * nty
+    stride = 7919 if ntiles % 7919 != 0 else 1
+    for ti in nb.prange(ntiles):
+        tile = (ti * stride) % ntiles
+        f, u = new_ray_buffer()
+        m = np.empty((3, 4))
+        m32 = np.empty(12, np.float32)
+        counts = np.zeros(N_COUNTERS, np.int64)
+        x0 = (tile % ntx) * TILE
+        y0 = (tile // ntx) * TILE
+        for y in range(y0, min(y0 + TILE, height)):
+            for x in range(x0, min(x0 + TILE, width)):
+                pixel = y * width + x
+                for s in range(s0, s1):
+                    a, b = sample_2d(sampler, seed, pixel, s, spp, DIM_PIXEL)
+                    fdx, fdy = filter_offset(filt, a, b)
+                    lu = 0.5
+                    lv = 0.5
+                    if use_lens:
+                        lu, lv = sample_2d(sampler, seed, pixel, s, spp, DIM_LENS)
+                    time = 0.0
+                    if use_time:
+                        time = sample_1d(sampler, seed, pixel, s, spp, DIM_TIME)
+                    o, d = generate_ray(cam, (x + 0.5 + fdx) / width, (y + 0.5 + fdy) / height, lu, lv, time)
+                    r, g, bl = trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, s, spp,
+                                          max_depth, f, u, m, m32, counts)
+                    if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
+                        accum[y, x, 0] += r
+                        accum[y, x, 1] += g
+                        accum[y, x, 2] += bl
+                    else:
+                        counts[BAD_SAMPLES] += 1
+        for k in range(N_COUNTERS):
+            counters[tile, k] += counts[k]

@@ -1,0 +1,150 @@
+"""Light sampling for direct illumination (UsdLux semantics; see renderer/description.py `Light`).
+
+`sample_light` draws one point (or direction) on light k for a shading point and returns the
+direction to it, the distance for the shadow ray and the estimate of the light's contribution to
+the irradiance *per unit cosine*: `E_perp`, such that the Monte Carlo estimate of the reflected
+radiance is `f(wi, wo) * E_perp * cos(theta_i)` for physically based BRDFs and
+`kd * E_perp * cos + ks * E_perp * (n.h)^p` for the course models (which treat every light sample
+as a point light: Cook et al. 1984; Shirley, FCG).
+
+Area lights are sampled uniformly by area (rectangle, disk) or by solid angle of the visible cap
+(sphere: exact, no wasted samples behind the horizon of the light), which gives soft shadows whose
+noise falls with the stratification of the 2D light sample.
+"""
+import math
+
+import numba as nb
+
+from . import description as D
+from .build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .textures import sample_latlong
+from .vecmath import dot, normalize, onb, sub, to_world
+
+_JIT = dict(cache=True, nogil=True, inline='always')
+INF = math.inf
+
+
+@nb.njit(**_JIT)
+def _col(li_f, k, j):
+    return (li_f[k, LF_M + j], li_f[k, LF_M + 4 + j], li_f[k, LF_M + 8 + j])
+
+
+@nb.njit(cache=True, nogil=True)
+def sample_light(S, k, p, n, u1, u2):
+    """-> (wi, dist, E_perp rgb).  E_perp = (0,0,0) when the sample cannot contribute (behind the
+    light, inside a sphere light, ...).  n is the shading normal facing the viewer; only the dome
+    uses it (cosine-weighted hemisphere sampling)."""
+    t = S.li_type[k]
+    lf = S.li_f
+    L = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
+    zero = (0.0, 0.0, 0.0)
+    pos = _col(lf, k, 3)
+    if t == D.POINT:
+        v = sub(pos, p)
+        d2 = dot(v, v)
+        if d2 <= 0.0:
+            return (0.0, 0.0, 1.0), 0.0, zero
+        d = math.sqrt(d2)
+        inv = 1.0 / d2
+        return (v[0] / d, v[1] / d, v[2] / d), d, (L[0] * inv, L[1] * inv, L[2] * inv)
+    if t == D.RECT or t == D.DISK:
+        ex = _col(lf, k, 0)
+        ey = _col(lf, k, 1)
+        if t == D.RECT:
+            a = (u1 - 0.5) * lf[k, LF_W]
+            b = (u2 - 0.5) * lf[k, LF_H]
+        else:
+            r = lf[k, LF_RADIUS] * math.sqrt(u1)
+            phi = 2.0 * math.pi * u2
+            a = r * math.cos(phi)
+            b = r * math.sin(phi)
+        q = (pos[0] + a * ex[0] + b * ey[0], pos[1] + a * ex[1] + b * ey[1], pos[2] + a * ex[2] + b * ey[2])
+        v = sub(q, p)
+        d2 = dot(v, v)
+        if d2 <= 0.0:
+            return (0.0, 0.0, 1.0), 0.0, zero
+        d = math.sqrt(d2)
+        wi = (v[0] / d, v[1] / d, v[2] / d)
+        nl = normalize(_col(lf, k, 2))            # light emits along local -Z
+        cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
+        if cos_l <= 0.0:
+            return wi, d, zero
+        g = cos_l * lf[k, LF_AREA] / d2
+        return wi, d, (L[0] * g, L[1] * g, L[2] * g)
+    if t == D.SPHERE:
+        r = lf[k, LF_RADIUS]
+        v = sub(pos, p)
+        d2 = dot(v, v)
+        if d2 <= r * r:
+            return (0.0, 0.0, 1.0), 0.0, zero
+        d = math.sqrt(d2)
+        w = (v[0] / d, v[1] / d, v[2] / d)
+        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
+        cos_t = 1.0 - u1 * (1.0 - cos_max)
+        sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+        phi = 2.0 * math.pi * u2
+        tt, bb = onb(w)
+        wi = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+        # distance to the sphere surface along wi
+        bq = d * cos_t
+        dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
+        omega = 2.0 * math.pi * (1.0 - cos_max)
+        return wi, dist, (L[0] * omega, L[1] * omega, L[2] * omega)
+    if t == D.DISTANT:
+        w = normalize(_col(lf, k, 2))            # direction towards the light: local +Z
+        cos_max = lf[k, LF_COS_MAX]
+        if cos_max < 1.0:
+            cos_t = 1.0 - u1 * (1.0 - cos_max)
+            sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+            phi = 2.0 * math.pi * u2
+            tt, bb = onb(w)
+            w = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+        return w, INF, L
+    if t == D.DOME:
+        # cosine-weighted hemisphere about n: estimate of the irradiance integral is L(wi) * pi / cos
+        r = math.sqrt(u1)
+        phi = 2.0 * math.pi * u2
+        z = math.sqrt(max(0.0, 1.0 - u1))
+        tt, bb = onb(n)
+        wi = to_world((r * math.cos(phi), r * math.sin(phi), z), tt, bb, n)
+        if z <= 1e-8:
+            return wi, INF, zero
+        Le = dome_radiance(S, k, wi)
+        s = math.pi / z
+        return wi, INF, (Le[0] * s, Le[1] * s, Le[2] * s)
+    return (0.0, 0.0, 1.0), 0.0, zero
+
+
+@nb.njit(cache=True, nogil=True)
+def dome_radiance(S, k, wd):
+    """Radiance of dome light k seen along world direction wd."""
+    lf = S.li_f
+    L = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
+    tex = S.li_tex[k]
+    if tex < 0:
+        return L
+    # world -> light-local direction: rows of the (orthonormal up to scale) rotation
+    x = normalize(_col(lf, k, 0))
+    y = normalize(_col(lf, k, 1))
+    z = normalize(_col(lf, k, 2))
+    c = sample_latlong(S, tex, (dot(wd, x), dot(wd, y), dot(wd, z)))
+    return (L[0] * c[0], L[1] * c[1], L[2] * c[2])
+
+
+@nb.njit(cache=True, nogil=True)
+def escaped_radiance(S, wd):
+    """Radiance of a ray that leaves the scene: the dome lights if any, else the background colour."""
+    r = 0.0
+    g = 0.0
+    b = 0.0
+    found = False
+    for k in range(S.li_type.shape[0]):
+        if S.li_type[k] == D.DOME:
+            c = dome_radiance(S, k, wd)
+            r += c[0]
+            g += c[1]
+            b += c[2]
+            found = True
+    if found:
+        return (r, g, b)
+    return (S.background[0], S.background[1], S.background[2])

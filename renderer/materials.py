@@ -1,0 +1,198 @@
+"""Surface reflection models.
+
+Course models (exact `rtc:` parameters; the course's shading equations, which treat each light
+sample as a point source with irradiance `E_perp` normal to the light direction):
+
+* Lambertian          kd E cos
+* Blinn-Phong         kd E cos + ks E max(0, n.h)^p
+* Glaze               (1 - m) kd E cos                         + m x mirror reflection
+* Blinn-Phong mirrored (1 - m) kd E cos + ks E max(0, n.h)^p   + m x glossy reflection
+* Mirror              perfect reflection (weight ks if given, else 1)
+* Dielectric          Fresnel-weighted reflection / refraction, Beer attenuation inside
+* Cool-to-warm        Gooch et al. 1998 tone blend of kd between a cool and a warm colour
+
+`UsdPreviewSurface` (every other material) follows the reference implementation shipped with USD
+(`usdShaders/previewSurface.glslfx`): GGX distribution with alpha = roughness^2 (roughness clamped
+to >= 0.001), Smith-Schlick visibility with k = alpha/2, Schlick Fresnel; specular workflow
+F0 = specularColor, F90 = 1; metallic workflow F0 = lerp(0.04-ish dielectric F0 from ior, base, metallic).
+"""
+import math
+
+import numba as nb
+
+from . import description as D
+from .build import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
+                    MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
+from .textures import sample_texture
+from .vecmath import dot, normalize
+
+_JIT = dict(cache=True, nogil=True)
+GOOCH_BLUE, GOOCH_YELLOW, GOOCH_ALPHA, GOOCH_BETA = 0.4, 0.4, 0.2, 0.6
+
+
+@nb.njit(**_JIT)
+def colors(S, mat, st):
+    """(kd, ks) with textures applied."""
+    mf = S.mat_f
+    kd = (float(mf[mat, MF_KD]), float(mf[mat, MF_KD + 1]), float(mf[mat, MF_KD + 2]))
+    ks = (float(mf[mat, MF_KS]), float(mf[mat, MF_KS + 1]), float(mf[mat, MF_KS + 2]))
+    td = S.mat_i[mat, MI_DIFFUSE_TEX]
+    if td >= 0:
+        c = sample_texture(S, td, st[0], st[1])
+        kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
+    ts = S.mat_i[mat, MI_SPECULAR_TEX]
+    if ts >= 0:
+        c = sample_texture(S, ts, st[0], st[1])
+        ks = (ks[0] * c[0], ks[1] * c[1], ks[2] * c[2])
+    return kd, ks
+
+
+@nb.njit(**_JIT)
+def has_diffuse_lobe(model):
+    return (model == D.LAMBERTIAN or model == D.BLINN_PHONG or model == D.GLAZE
+            or model == D.BLINN_PHONG_MIRRORED or model == D.COOL_TO_WARM or model == D.PREVIEW_SURFACE)
+
+
+@nb.njit(**_JIT)
+def _schlick(f0, f90, c):
+    x = 1.0 - c
+    x5 = x * x * x * x * x
+    return f0 + (f90 - f0) * x5
+
+
+@nb.njit(**_JIT)
+def preview_params(S, mat, kd, ks):
+    """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface."""
+    mf = S.mat_f
+    rough = max(float(mf[mat, MF_ROUGH]), 0.001)
+    alpha = rough * rough
+    if mf[mat, MF_SPECWF] != 0.0:
+        return kd, ks, (1.0, 1.0, 1.0), alpha
+    metal = float(mf[mat, MF_METAL])
+    ior = float(mf[mat, MF_IOR])
+    r = (1.0 - ior) / (1.0 + ior)
+    r *= r
+    c0 = 1.0 + (kd[0] - 1.0) * metal
+    c1 = 1.0 + (kd[1] - 1.0) * metal
+    c2 = 1.0 + (kd[2] - 1.0) * metal
+    f0 = (r * c0 + (kd[0] - r * c0) * metal, r * c1 + (kd[1] - r * c1) * metal, r * c2 + (kd[2] - r * c2) * metal)
+    diff = (kd[0] * (1.0 - metal), kd[1] * (1.0 - metal), kd[2] * (1.0 - metal))
+    return diff, f0, (c0, c1, c2), alpha
+
+
+@nb.njit(**_JIT)
+def ggx_d(nh, alpha):
+    a2 = alpha * alpha
+    x = nh * nh * (a2 - 1.0) + 1.0
+    return a2 / (math.pi * x * x)
+
+
+@nb.njit(**_JIT)
+def smith_g(nl, nv, alpha):
+    k = 0.5 * alpha
+    return (nl / (nl * (1.0 - k) + k)) * (nv / (nv * (1.0 - k) + k))
+
+
+@nb.njit(**_JIT)
+def direct(S, mat, kd, ks, n, wo, wi, E):
+    """Reflected radiance towards wo from one light sample arriving along wi with E_perp = E.
+    n is the shading normal on the viewer's side."""
+    model = S.mat_i[mat, MI_MODEL]
+    cos_i = dot(n, wi)
+    if cos_i <= 0.0:
+        return (0.0, 0.0, 0.0)
+    mf = S.mat_f
+    if model == D.COOL_TO_WARM:
+        # Gooch: blend by (1 + n.l)/2 between k_cool and k_warm derived from kd; the light's grey
+        # level scales it so several lights add up.
+        tw = 0.5 * (1.0 + cos_i)
+        e = (E[0] + E[1] + E[2]) / 3.0
+        cool = (GOOCH_ALPHA * kd[0], GOOCH_ALPHA * kd[1], GOOCH_BLUE + GOOCH_ALPHA * kd[2])
+        warm = (GOOCH_YELLOW + GOOCH_BETA * kd[0], GOOCH_YELLOW + GOOCH_BETA * kd[1], GOOCH_BETA * kd[2])
+        return (e * (tw * warm[0] + (1 - tw) * cool[0]), e * (tw * warm[1] + (1 - tw) * cool[1]),
+                e * (tw * warm[2] + (1 - tw) * cool[2]))
+    if model == D.PREVIEW_SURFACE:
+        diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
+        nv = dot(n, wo)
+        if nv <= 0.0:
+            return (0.0, 0.0, 0.0)
+        h = normalize((wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]))
+        nh = max(dot(n, h), 0.0)
+        vh = max(dot(wo, h), 0.0)
+        dg = ggx_d(nh, alpha) * smith_g(cos_i, nv, alpha) / (4.0 * cos_i * nv)
+        out = [0.0, 0.0, 0.0]
+        for c in range(3):
+            F = _schlick(f0[c], f90[c], vh)
+            out[c] = (diff[c] / math.pi * (1.0 - F) + dg * F) * E[c] * cos_i
+        cc = float(mf[mat, MF_CLEARCOAT])
+        if cc > 0.0:
+            ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001) ** 2
+            Fc = _schlick(0.04, 1.0, vh)
+            spec = cc * Fc * ggx_d(nh, ca) * smith_g(cos_i, nv, ca) / (4.0 * cos_i * nv)
+            for c in range(3):
+                out[c] += spec * E[c] * cos_i
+        return (out[0], out[1], out[2])
+    m = 0.0
+    if model == D.GLAZE or model == D.BLINN_PHONG_MIRRORED:
+        m = float(mf[mat, MF_MIRROR])
+    if model == D.LAMBERTIAN or model == D.GLAZE or model == D.BLINN_PHONG or model == D.BLINN_PHONG_MIRRORED:
+        w = (1.0 - m) * cos_i
+        r = (kd[0] * E[0] * w, kd[1] * E[1] * w, kd[2] * E[2] * w)
+        if model == D.BLINN_PHONG or model == D.BLINN_PHONG_MIRRORED:
+            h = normalize((wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]))
+            nh = dot(n, h)
+            if nh > 0.0:
+                s = nh ** float(mf[mat, MF_EXP])
+                r = (r[0] + ks[0] * E[0] * s, r[1] + ks[1] * E[1] * s, r[2] + ks[2] * E[2] * s)
+        return r
+    return (0.0, 0.0, 0.0)
+
+
+@nb.njit(**_JIT)
+def fresnel_dielectric(cos_i, eta):
+    """Unpolarised Fresnel reflectance for relative index eta = n_t / n_i (cos_i > 0); 1 on total
+    internal reflection.  Also returns cos_t."""
+    sin2_t = (1.0 - cos_i * cos_i) / (eta * eta)
+    if sin2_t >= 1.0:
+        return 1.0, 0.0
+    cos_t = math.sqrt(1.0 - sin2_t)
+    rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t)
+    rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t)
+    return 0.5 * (rs * rs + rp * rp), cos_t
+
+
+@nb.njit(**_JIT)
+def refract(d, n, eta, cos_i, cos_t):
+    """Refracted direction of unit d through a surface with unit normal n facing against d."""
+    k = 1.0 / eta
+    return normalize((k * d[0] + (k * cos_i - cos_t) * n[0],
+                      k * d[1] + (k * cos_i - cos_t) * n[1],
+                      k * d[2] + (k * cos_i - cos_t) * n[2]))
+
+
+@nb.njit(**_JIT)
+def mirror_weight(S, mat, model, ks):
+    """Colour weight of the specular continuation of the course models (0 = none)."""
+    if model == D.MIRROR:
+        if ks[0] > 0.0 or ks[1] > 0.0 or ks[2] > 0.0:
+            return ks
+        return (1.0, 1.0, 1.0)
+    if model == D.GLAZE or model == D.BLINN_PHONG_MIRRORED:
+        m = float(S.mat_f[mat, MF_MIRROR])
+        return (m, m, m)
+    return (0.0, 0.0, 0.0)
+
+
+@nb.njit(**_JIT)
+def sample_ggx_h(n, alpha, u1, u2, onb_t, onb_b):
+    """Half vector from the GGX normal distribution (pdf D(h) cos(theta_h))."""
+    phi = 2.0 * math.pi * u1
+    t2 = alpha * alpha * u2 / max(1.0 - u2, 1e-12)
+    cos_t = 1.0 / math.sqrt(1.0 + t2)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    x = sin_t * math.cos(phi)
+    y = sin_t * math.sin(phi)
+    return (x * onb_t[0] + y * onb_b[0] + cos_t * n[0],
+            x * onb_t[1] + y * onb_b[1] + cos_t * n[1],
+            x * onb_t[2] + y * onb_b[2] + cos_t * n[2])
+

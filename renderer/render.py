@@ -1,0 +1,190 @@
+"""The render loop: build the scene, run passes of samples, report progress, stop cleanly.
+
+A render is a sequence of passes; pass i adds samples [s_i, s_{i+1}) of every pixel.  Because each
+sample's random numbers depend only on (seed, pixel, sample index, dimension) and each pixel's samples
+are added in index order, any split into passes - including an interrupted render resumed from a
+checkpoint - gives a bit-identical image.  Passes grow so that each takes about `pass_seconds`
+(the first is one sample per pixel: the time to the first full image).
+"""
+from __future__ import annotations
+
+import os
+import time as _time
+from dataclasses import dataclass, field
+
+import numba
+import numpy as np
+
+from . import description as D
+from .build import build
+from .cameras import camera_table
+from .film import Film
+from .filters import FILTER_NAMES
+from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, render_pass
+from .samplers import SAMPLER_NAMES
+
+MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
+MAX_SPP = 1 << 20
+
+
+class RenderError(Exception):
+    """Invalid render options (bad sizes, unknown sampler...)."""
+
+
+@dataclass
+class RenderOptions:
+    width: int | None = None          # None: from the stage's render settings
+    height: int | None = None
+    spp: int | None = None
+    sampler: str = 'sobol'
+    filter: str = 'gaussian'
+    seed: int = 0
+    max_depth: int = 4
+    threads: int | None = None
+    pass_seconds: float = 1.0
+    depth_of_field: bool = True
+    motion_blur: bool = True
+
+    def resolved(self, settings: D.RenderSettings) -> 'RenderOptions':
+        w = self.width or settings.width
+        h = self.height or settings.height
+        if self.width and not self.height and settings.width and settings.height:
+            h = max(1, round(self.width * settings.height / settings.width))
+        spp = self.spp or settings.samples_per_pixel or 16
+        max_depth = self.max_depth if self.max_depth is not None else (settings.max_depth or 4)
+        o = RenderOptions(**{**self.__dict__, 'width': int(w), 'height': int(h), 'spp': int(spp),
+                             'max_depth': int(max_depth)})
+        o.validate()
+        return o
+
+    def validate(self):
+        if not (1 <= self.width <= 65536 and 1 <= self.height <= 65536) or self.width * self.height > MAX_PIXELS:
+            raise RenderError(f'image size {self.width}x{self.height} is out of range '
+                              f'(each side 1..65536, at most {MAX_PIXELS} pixels)')
+        if not 1 <= self.spp <= MAX_SPP:
+            raise RenderError(f'samples per pixel {self.spp} is out of range (1..{MAX_SPP})')
+        if self.sampler not in SAMPLER_NAMES:
+            raise RenderError(f"unknown sampler '{self.sampler}' (choose from {', '.join(SAMPLER_NAMES)})")
+        if self.filter not in FILTER_NAMES:
+            raise RenderError(f"unknown filter '{self.filter}' (choose from {', '.join(FILTER_NAMES)})")
+        if not 0 <= self.max_depth <= 64:
+            raise RenderError(f'max depth {self.max_depth} is out of range (0..64)')
+        if not 0 <= self.seed < 2 ** 32:
+            raise RenderError(f'seed {self.seed} is out of range (0..2^32-1)')
+
+
+@dataclass
+class RenderStats:
+    seconds: float = 0.0
+    build_seconds: float = 0.0
+    first_pass_seconds: float = 0.0
+    rays_camera: int = 0
+    rays_shadow: int = 0
+    rays_secondary: int = 0
+    bad_samples: int = 0
+    passes: list = field(default_factory=list)      # (spp_end, seconds)
+
+    @property
+    def rays(self) -> int:
+        return self.rays_camera + self.rays_shadow + self.rays_secondary
+
+
+@dataclass
+class RenderResult:
+    image: np.ndarray                 # float32 (h, w, 3) linear
+    film: Film
+    options: RenderOptions
+    stats: RenderStats
+    interrupted: bool = False
+
+    @property
+    def spp_done(self) -> int:
+        return self.film.spp
+
+    def metadata(self) -> dict:
+        s = self.stats
+        return {'rtc:spp': self.film.spp, 'rtc:sampler': self.options.sampler, 'rtc:filter': self.options.filter,
+                'rtc:seed': self.options.seed, 'rtc:seconds': round(s.seconds, 4), 'rtc:rays': s.rays,
+                'rtc:maxDepth': self.options.max_depth, 'rtc:interrupted': int(self.interrupted)}
+
+
+class Renderer:
+    """A scene built once and rendered with given options; reusable for several renders (converge)."""
+
+    def __init__(self, desc: D.SceneDescription, threads: int | None = None):
+        t0 = _time.perf_counter()
+        if threads:
+            numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        self.desc = desc
+        self.built = build(desc, threads=threads)
+        self.build_seconds = _time.perf_counter() - t0
+
+    def close(self):
+        self.built.close()
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def render(self, options: RenderOptions, *, film: Film | None = None, should_stop=lambda: False,
+               on_pass=None) -> RenderResult:
+        """Render until `options.spp` samples per pixel (continuing `film` if given) or until
+        `should_stop()` is true between passes.  `on_pass(result)` is called after every pass."""
+        o = options.resolved(self.desc.settings)
+        cam = self.desc.camera
+        use_lens = o.depth_of_field and cam.lens_radius > 0 and not self.desc.settings.disable_depth_of_field
+        use_time = (o.motion_blur and not self.desc.settings.disable_motion_blur
+                    and (self.built.motion_steps > 1 or cam.motion is not None))
+        ctab = camera_table(cam, o.width, o.height, self.built.origin, depth_of_field=use_lens,
+                            motion_blur=use_time)
+        use_lens = bool(ctab[29] > 0)
+        if film is None:
+            film = Film(o.width, o.height)
+        elif (film.width, film.height) != (o.width, o.height):
+            raise RenderError(f'checkpoint is {film.width}x{film.height}, render is {o.width}x{o.height}')
+        ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
+        counters = np.zeros((ntiles, N_COUNTERS), np.int64)
+        sampler = SAMPLER_NAMES[o.sampler]
+        filt = FILTER_NAMES[o.filter]
+        stats = RenderStats(build_seconds=self.build_seconds)
+        result = RenderResult(image=film.image(), film=film, options=o, stats=stats)
+        t_start = _time.perf_counter()
+        s = film.spp
+        step = 1
+        while s < o.spp:
+            if should_stop():
+                result.interrupted = True
+                break
+            s1 = min(o.spp, s + step)
+            t0 = _time.perf_counter()
+            render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s1, o.spp,
+                        sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters)
+            dt = _time.perf_counter() - t0
+            film.count += s1 - s
+            stats.passes.append((s1, dt))
+            if len(stats.passes) == 1:
+                stats.first_pass_seconds = dt
+            per_sample = dt / (s1 - s)
+            s = s1
+            step = max(1, min(o.spp - s, int(o.pass_seconds / max(per_sample, 1e-9))))
+            tot = counters.sum(0)
+            stats.rays_camera, stats.rays_shadow = int(tot[RAYS_CAMERA]), int(tot[RAYS_SHADOW])
+            stats.rays_secondary, stats.bad_samples = int(tot[RAYS_SECONDARY]), int(tot[BAD_SAMPLES])
+            stats.seconds = _time.perf_counter() - t_start
+            if on_pass is not None:
+                on_pass(result)
+        stats.seconds = _time.perf_counter() - t_start
+        result.image = film.image()
+        return result
+
+
+def render(desc: D.SceneDescription, options: RenderOptions, **kw) -> RenderResult:
+    """One-shot convenience: build, render, release."""
+    with Renderer(desc, threads=options.threads) as r:
+        return r.render(options, **kw)
+
+
+def default_threads() -> int:
+    return len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else (os.cpu_count() or 1)

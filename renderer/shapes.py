@@ -1,0 +1,89 @@
+"""From an Embree hit to a shading point: which placement, gprim and material was hit, and the
+world-space position, normals and texture coordinates there.
+
+Instancing: Embree reports the top-level instance-array geometry (instID) and the row within it
+(instPrimID); `grp_base[instID] + instPrimID` is our placement row, whose float64 matrix (lerped at the
+ray's time exactly as Embree lerps its time steps) maps the prototype's object space to the world.
+Normals transform with the cofactor matrix, i.e. `L^-T` up to a positive factor, which is correct for
+non-uniform scale and keeps the outside of mirrored (negative-determinant) placements outside.
+
+Precision: the hit position is rebuilt from Embree's barycentrics on the float32 object-space
+triangle (spheres: projected onto the exact sphere) and transformed in float64, so its error does not
+grow with the length of the ray; the geometric normal used to offset new rays comes from the
+triangle's vertices, not from Embree's Ng.
+"""
+import math
+
+import numba as nb
+
+from .build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE
+from .trace import instance_transform
+from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
+
+_JIT = dict(cache=True, nogil=True)
+
+
+@nb.njit(**_JIT)
+def surface(S, scene, inst_id, inst_prim, geom_id, prim_id, bu, bv, o, d, t, time, m, m32):
+    """-> (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
+    Moving placements take their matrix from Embree (interpolated exactly as it was traced: lerped
+    or, for rotations, slerped); static ones use our float64 matrix.
+    ng: unit geometric normal (outward), ns: unit shading normal, st: texture coordinates."""
+    row = S.grp_base[inst_id] + inst_prim
+    proto = S.in_proto[row]
+    g = S.pr_geom_gp[S.pr_geom_off[proto] + geom_id]
+    slot = g - S.pr_gp_start[proto]
+    mat = -1
+    base = S.in_matset[row]
+    if base >= 0:
+        mat = S.matset[base + slot]
+    if mat < 0:
+        mat = S.gp_material[g]
+    if S.in_xf.shape[1] > 1:
+        instance_transform(scene, inst_id, inst_prim, time, m32)
+        for i in range(3):
+            for j in range(4):
+                m[i, j] = m32[4 * i + j]
+    else:
+        lerp_xf(S.in_xf, row, time, m)
+    flags = S.gp_flags[g]
+    if S.gp_kind[g] == GP_SPHERE:
+        k = S.gp_off[g]
+        c = (S.sph[k, 0], S.sph[k, 1], S.sph[k, 2])
+        r = S.sph[k, 3]
+        ph = (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])
+        po, _ = inverse_xform(m, ph, d)
+        nobj = normalize((po[0] - c[0], po[1] - c[1], po[2] - c[2]))
+        pobj = (c[0] + r * nobj[0], c[1] + r * nobj[1], c[2] + r * nobj[2])
+        p = xform_point(m, pobj)
+        ng = normalize(cofactor_dir(m, nobj))
+        # spherical (lat-long) texture coordinates, +Y up, seam at -X
+        s = 0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi)
+        tt = 0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi
+        return p, ng, ng, (s, tt), g, mat
+    tri = S.gp_off[g] + prim_id
+    v = S.tri_v
+    w0 = 1.0 - bu - bv
+    pobj = (w0 * v[tri, 0, 0] + bu * v[tri, 1, 0] + bv * v[tri, 2, 0],
+            w0 * v[tri, 0, 1] + bu * v[tri, 1, 1] + bv * v[tri, 2, 1],
+            w0 * v[tri, 0, 2] + bu * v[tri, 1, 2] + bv * v[tri, 2, 2])
+    e1 = (float(v[tri, 1, 0]) - v[tri, 0, 0], float(v[tri, 1, 1]) - v[tri, 0, 1], float(v[tri, 1, 2]) - v[tri, 0, 2])
+    e2 = (float(v[tri, 2, 0]) - v[tri, 0, 0], float(v[tri, 2, 1]) - v[tri, 0, 1], float(v[tri, 2, 2]) - v[tri, 0, 2])
+    p = xform_point(m, pobj)
+    ng = normalize(cofactor_dir(m, cross(e1, e2)))
+    ns = ng
+    if flags & GP_HAS_NORMALS:
+        k = S.gp_n_off[g] + prim_id
+        nn = S.tri_n
+        nsum = (w0 * nn[k, 0, 0] + bu * nn[k, 1, 0] + bv * nn[k, 2, 0],
+                w0 * nn[k, 0, 1] + bu * nn[k, 1, 1] + bv * nn[k, 2, 1],
+                w0 * nn[k, 0, 2] + bu * nn[k, 1, 2] + bv * nn[k, 2, 2])
+        if nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2] > 0.0:
+            ns = normalize(cofactor_dir(m, nsum))
+    st = (bu, bv)
+    if flags & GP_HAS_UVS:
+        k = S.gp_uv_off[g] + prim_id
+        uv = S.tri_uv
+        st = (w0 * uv[k, 0, 0] + bu * uv[k, 1, 0] + bv * uv[k, 2, 0],
+              w0 * uv[k, 0, 1] + bu * uv[k, 1, 1] + bv * uv[k, 2, 1])
+    return p, ng, ns, st, g, mat

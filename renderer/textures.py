@@ -1,0 +1,82 @@
+"""Image texture lookups for the kernels.
+
+Images are decoded once by the stage reader (OpenImageIO) into linear float32 and packed into one
+flat array (`SceneData.tex_data`, offsets in `tex_i`).  Lookups are bilinear with the UsdUVTexture
+wrap modes; `st` follows USD: s to the right, t **up** (row 0 of the file is the top, t = 1).
+Lat-long maps follow the OpenEXR / UsdLux DomeLight convention: +Y is the top row, longitude 0 is +Z,
+longitude +pi/2 is +X, and longitude decreases to the right.
+"""
+import math
+
+import numba as nb
+
+_JIT = dict(cache=True, nogil=True, inline='always')
+REPEAT, CLAMP, MIRROR, BLACK = 0, 1, 2, 3
+
+
+@nb.njit(**_JIT)
+def _wrap(i, n, mode):
+    """-> (index, inside) for integer texel coordinate i."""
+    if 0 <= i < n:
+        return i, True
+    if mode == REPEAT:
+        return i % n, True
+    if mode == MIRROR:
+        p = i % (2 * n)
+        return (p if p < n else 2 * n - 1 - p), True
+    if mode == CLAMP:
+        return (0 if i < 0 else n - 1), True
+    return 0, False
+
+
+@nb.njit(**_JIT)
+def _texel(S, tid, x, y, c):
+    off = S.tex_i[tid, 0]
+    w = S.tex_i[tid, 1]
+    h = S.tex_i[tid, 2]
+    ch = S.tex_i[tid, 3]
+    xi, okx = _wrap(x, w, S.tex_i[tid, 4])
+    yi, oky = _wrap(y, h, S.tex_i[tid, 5])
+    if not (okx and oky):
+        return 0.0
+    cc = c if c < ch else (0 if ch < 3 else ch - 1)
+    return S.tex_data[off + (yi * w + xi) * ch + cc]
+
+
+@nb.njit(cache=True, nogil=True)
+def sample_texture(S, tid, s, t):
+    """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias."""
+    w = S.tex_i[tid, 1]
+    h = S.tex_i[tid, 2]
+    x = s * w - 0.5
+    y = (1.0 - t) * h - 0.5
+    x0 = math.floor(x)
+    y0 = math.floor(y)
+    fx = x - x0
+    fy = y - y0
+    ix = int(x0)
+    iy = int(y0)
+    out0 = 0.0
+    out1 = 0.0
+    out2 = 0.0
+    for c in range(3):
+        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, c) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, c)
+             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, c) + fx * fy * _texel(S, tid, ix + 1, iy + 1, c))
+        v = v * S.tex_f[tid, c] + S.tex_f[tid, 4 + c]
+        if c == 0:
+            out0 = v
+        elif c == 1:
+            out1 = v
+        else:
+            out2 = v
+    return (out0, out1, out2)
+
+
+@nb.njit(cache=True, nogil=True)
+def sample_latlong(S, tid, d):
+    """Colour of a lat-long environment image in local direction d (unit)."""
+    lon = math.atan2(d[0], d[2])
+    lat = math.asin(max(-1.0, min(1.0, d[1])))
+    s = 0.5 - lon / (2.0 * math.pi)
+    t = 0.5 + lat / math.pi
+    return sample_texture(S, tid, s, t)

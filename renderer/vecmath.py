@@ -1,0 +1,209 @@
+"""Scalar vector helpers for the numba kernels (float64 triples passed as plain tuples), and the
+robust ray-origin offset.
+
+Tuples keep everything in registers; numba inlines these.  The offset follows Waechter & Binder,
+"A Fast and Robust Method for Avoiding Self-Intersection" (Ray Tracing Gems, ch. 6): move the float32
+origin by a fixed number of ULPs along the geometric normal, which is scale-invariant; near the origin
+(|p| < 1/32), where ULPs vanish, by a fixed float distance.
+"""
+import math
+
+import numba as nb
+import numpy as np
+from llvmlite import ir
+from numba import types
+from numba.extending import intrinsic
+
+_JIT = dict(cache=True, nogil=True, inline='always')
+
+
+@intrinsic
+def _f32_bits(typingctx, x):
+    sig = types.int32(types.float32)
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.IntType(32))
+    return sig, codegen
+
+
+@intrinsic
+def _bits_f32(typingctx, x):
+    sig = types.float32(types.int32)
+
+    def codegen(context, builder, signature, args):
+        return builder.bitcast(args[0], ir.FloatType())
+    return sig, codegen
+
+
+@nb.njit(**_JIT)
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+@nb.njit(**_JIT)
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
+
+
+@nb.njit(**_JIT)
+def add(a, b):
+    return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
+
+
+@nb.njit(**_JIT)
+def sub(a, b):
+    return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
+
+
+@nb.njit(**_JIT)
+def scale(a, s):
+    return (a[0] * s, a[1] * s, a[2] * s)
+
+
+@nb.njit(**_JIT)
+def mul(a, b):
+    return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
+
+
+@nb.njit(**_JIT)
+def madd(a, b, s):
+    """a + s * b"""
+    return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
+
+
+@nb.njit(**_JIT)
+def length(a):
+    return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+
+
+@nb.njit(**_JIT)
+def normalize(a):
+    n = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
+    if n > 0.0:
+        return (a[0] / n, a[1] / n, a[2] / n)
+    return (0.0, 0.0, 1.0)
+
+
+@nb.njit(**_JIT)
+def reflect(d, n):
+    """Mirror direction of incident d about n."""
+    k = 2.0 * dot(d, n)
+    return (d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2])
+
+
+@nb.njit(**_JIT)
+def onb(n):
+    """Orthonormal tangents (t, b) of unit n (Duff et al. 2017, branchless)."""
+    s = 1.0 if n[2] >= 0.0 else -1.0
+    a = -1.0 / (s + n[2])
+    bb = n[0] * n[1] * a
+    t = (1.0 + s * n[0] * n[0] * a, s * bb, -s * n[0])
+    b = (bb, s + n[1] * n[1] * a, -n[1])
+    return t, b
+
+
+@nb.njit(**_JIT)
+def to_world(local, t, b, n):
+    return (local[0] * t[0] + local[1] * b[0] + local[2] * n[0],
+            local[0] * t[1] + local[1] * b[1] + local[2] * n[1],
+            local[0] * t[2] + local[1] * b[2] + local[2] * n[2])
+
+
+@nb.njit(**_JIT)
+def xform_point(m, p):
+    """m: (3, 4) float64 array view, column-vector convention."""
+    return (m[0, 0] * p[0] + m[0, 1] * p[1] + m[0, 2] * p[2] + m[0, 3],
+            m[1, 0] * p[0] + m[1, 1] * p[1] + m[1, 2] * p[2] + m[1, 3],
+            m[2, 0] * p[0] + m[2, 1] * p[1] + m[2, 2] * p[2] + m[2, 3])
+
+
+@nb.njit(**_JIT)
+def xform_dir(m, v):
+    return (m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
+            m[1, 0] * v[0] + m[1, 1] * v[1] + m[1, 2] * v[2],
+            m[2, 0] * v[0] + m[2, 1] * v[1] + m[2, 2] * v[2])
+
+
+@nb.njit(**_JIT)
+def cofactor_dir(m, v):
+    """cof(L) v for the 3x3 part L of m: equals det(L) L^-T v.  Normals transform with L^-T; the
+    cofactor form needs no division and stays finite for near-singular L."""
+    c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    c10 = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
+    c11 = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
+    c12 = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
+    c20 = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+    c21 = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+    c22 = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    det = m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02
+    sgn = 1.0 if det >= 0.0 else -1.0
+    return (sgn * (c00 * v[0] + c01 * v[1] + c02 * v[2]),
+            sgn * (c10 * v[0] + c11 * v[1] + c12 * v[2]),
+            sgn * (c20 * v[0] + c21 * v[1] + c22 * v[2]))
+
+
+@nb.njit(**_JIT)
+def inverse_xform(m, p, v):
+    """Object-space point and direction of a world point p and direction v under m = [L | T]."""
+    q = (p[0] - m[0, 3], p[1] - m[1, 3], p[2] - m[2, 3])
+    c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
+    c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
+    c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
+    c10 = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
+    c11 = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
+    c12 = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
+    c20 = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
+    c21 = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
+    c22 = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
+    inv = 1.0 / (m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02)
+    # L^-1 = adj(L)/det = cof(L)^T / det
+    po = ((c00 * q[0] + c10 * q[1] + c20 * q[2]) * inv,
+          (c01 * q[0] + c11 * q[1] + c21 * q[2]) * inv,
+          (c02 * q[0] + c12 * q[1] + c22 * q[2]) * inv)
+    vo = ((c00 * v[0] + c10 * v[1] + c20 * v[2]) * inv,
+          (c01 * v[0] + c11 * v[1] + c21 * v[2]) * inv,
+          (c02 * v[0] + c12 * v[1] + c22 * v[2]) * inv)
+    return po, vo
+
+
+OFFSET_INT_SCALE = 256.0
+OFFSET_FLOAT_SCALE = 1.0 / 65536.0
+OFFSET_ORIGIN = 1.0 / 32.0
+
+
+@nb.njit(**_JIT)
+def _offset1(p, n):
+    pf = np.float32(p)
+    if abs(pf) < OFFSET_ORIGIN:
+        return np.float32(pf + np.float32(OFFSET_FLOAT_SCALE * n))
+    of = np.int32(OFFSET_INT_SCALE * n)
+    bits = _f32_bits(pf)
+    if pf < 0:
+        return _bits_f32(np.int32(bits - of))
+    return _bits_f32(np.int32(bits + of))
+
+
+@nb.njit(**_JIT)
+def offset_origin(p, n):
+    """float32-representable origin just off the surface at p on the side n points to (n unit)."""
+    return (_offset1(p[0], n[0]), _offset1(p[1], n[1]), _offset1(p[2], n[2]))
+
+
+@nb.njit(**_JIT)
+def lerp_xf(xf, row, time, out):
+    """Instance matrix of `row` at normalised shutter time in [0, 1] (Embree lerps time steps the same
+    way), written into out (3, 4)."""
+    k = xf.shape[1]
+    if k == 1:
+        for i in range(3):
+            for j in range(4):
+                out[i, j] = xf[row, 0, i, j]
+        return
+    f = time * (k - 1)
+    k0 = min(int(f), k - 2)
+    a = f - k0
+    for i in range(3):
+        for j in range(4):
+            out[i, j] = (1.0 - a) * xf[row, k0, i, j] + a * xf[row, k0 + 1, i, j]
