@@ -56,7 +56,7 @@ def test_rect_light_matches_lambert_polygon_formula():
     light = rect_light((0.0, h, 0.0), a, b, (Lr, Lr, Lr))
     desc = scene([D.Container('/', meshes=[quad(40.0)])], [LAMBERT], [light], ortho_down(width=width),
                  width=n, height=n)
-    img = render(desc, RenderOptions(spp=1024, sampler='sobol', filter='box')).image[..., 0]
+    img = render(desc, RenderOptions(spp=4096, sampler='sobol', filter='box')).image[..., 0]
     # light local X (width a) = world X, local Y (height b) = world -Z
     corners = [(-a / 2, h, -b / 2), (a / 2, h, -b / 2), (a / 2, h, b / 2), (-a / 2, h, b / 2)]
     ref = pixel_average(lambda x, z: 0.5 * polygon_irradiance(x, z, corners, Lr), n, width, sub=6)
@@ -118,7 +118,8 @@ def test_normals_of_scaled_and_mirrored_instances_are_analytic(mirror):
     m[:3, :3] = L
     m[:3, 3] = (0.5, -0.2, 0.3)
     cont = D.Container('/p', spheres=[D.Sphere('/p/s', 1.0, np.eye(4), material=0)])
-    desc = scene([cont], [LAMBERT], [], look_at((0, 0, 10), (0, 0, 0)), instances=static_instances(matrices=[m]))
+    cam = D.Camera('/cam', matrix=look_at((0, 0, 10), (0, 0, 0)))
+    desc = scene([cont], [LAMBERT], [], cam, instances=static_instances(matrices=[m]))
     b = build(desc)
     try:
         n = 2000
