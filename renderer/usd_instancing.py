@@ -6,7 +6,8 @@ shutter -- that gprim alone (so that moving plain gprims keep their motion inste
 baked into the root's static geometry).  `InstanceGraph.build` visits each container's prims
 once and records
 
-* its gprims (with their purpose as seen inside the container, -1 = inherited from wherever the
+* its gprims (with their purpose as seen inside the container; like visibility, purpose only
+  counts where it is authored on an Imageable prim, -1 = inherited from wherever the
   container is placed),
 * its references to other containers: native instance prims, PointInstancers (one row per
   instance, from `ComputeInstanceTransformsAtTimes` converted with numpy), moving gprims,
@@ -48,7 +49,6 @@ PI = UsdGeom.PointInstancer
 PI_PROTOTYPE_PREDICATE = (Usd.PrimIsActive & Usd.PrimHasDefiningSpecifier & ~Usd.PrimIsAbstract
                           & Usd.PrimIsLoaded)
 MAX_DEPTH = 64
-_BINDING_NAMES = ('material:binding', 'primvars:displayColor')
 
 
 def _kind(prim: Usd.Prim, cache: dict) -> str:
@@ -135,6 +135,7 @@ class InstanceGraph:
         self.maps: list[tuple[Sdf.Path, Sdf.Path, bool]] = [
             (Sdf.Path.absoluteRootPath, Sdf.Path.absoluteRootPath, False)]
         self._kinds: dict = {}
+        self._prototypes: dict[Sdf.Path, int] = {}
 
     # ------------------------------------------------------------------ walk
     def build(self) -> None:
@@ -149,40 +150,50 @@ class InstanceGraph:
         self._walk(node, include_root)
         return self.index[key]
 
+    def _prototype_node(self, proto: Usd.Prim) -> int:
+        path = proto.GetPath()
+        n = self._prototypes.get(path)
+        if n is None:
+            n = self._prototypes[path] = self._node(str(path), proto, None, include_root=False)
+        return n
+
     def _walk(self, node: Node, include_root: bool) -> None:
         t, root, is_root = self.time, node.root, node.key == '/'
         it = iter(Usd.PrimRange(root, PI_PROTOTYPE_PREDICATE if include_root else Usd.PrimDefaultPredicate))
-        purpose = {root.GetPath().GetParentPath(): INHERIT}
-        binding = {root.GetPath().GetParentPath(): False}
+        # (purpose, binding-authored) of the prims whose children are walked, by path
+        state = {root.GetPath(): (INHERIT, False)}
         for prim in it:
             if prim == root and not include_root:
-                purpose[prim.GetPath()], binding[prim.GetPath()] = INHERIT, False
                 continue
-            path, parent = prim.GetPath(), prim.GetPath().GetParentPath()
-            p, b = purpose.get(parent, INHERIT), binding.get(parent, False)
+            path = prim.GetPath()
+            p, b = state.get(path.GetParentPath(), (INHERIT, False))
             names = prim.GetAuthoredPropertyNames()
             if names:
-                if 'visibility' in names and prim.GetAttribute('visibility').Get(t) == UsdGeom.Tokens.invisible:
+                imageable = ('visibility' in names or 'purpose' in names) and prim.IsA(UsdGeom.Imageable)
+                if imageable and 'visibility' in names and \
+                        prim.GetAttribute('visibility').Get(t) == UsdGeom.Tokens.invisible:
                     it.PruneChildren()
                     continue
-                if 'purpose' in names:
+                if imageable and 'purpose' in names:
                     p = PURPOSES.get(prim.GetAttribute('purpose').Get(t), p)
-                b = b or any(n.startswith(_BINDING_NAMES) for n in names)
-                if self.animated and any(n.startswith('xformOp') for n in names):
+                joined = ' '.join(names)
+                b = b or 'material:binding' in joined or 'primvars:displayColor' in joined
+                if self.animated and 'xformOp' in joined:
                     self.xform_prims.append(prim)
-            purpose[path], binding[path] = p, b
             kind = _kind(prim, self._kinds)
             if prim.IsInstance():
                 if kind == 'gprim' and p not in (2, 3):
                     node.gprims.append((prim, p))
                 proto = prim.GetPrototype()
-                child = self._node(str(proto.GetPath()), proto, None, include_root=False)
-                node.refs.append(Ref(child, prim, p, path, proto.GetPath(), b))
+                node.refs.append(Ref(self._prototype_node(proto), prim, p, path, proto.GetPath(), b))
                 it.PruneChildren()
-            elif kind == 'pi':
+                continue
+            if kind == 'pi':
                 node.instancers.append(self._instancer(prim))
                 it.PruneChildren()
-            elif kind == 'gprim':
+                continue
+            state[path] = (p, b)
+            if kind == 'gprim':
                 if p not in (2, 3):
                     node.gprims.append((prim, p))
             elif kind == 'light':
@@ -225,8 +236,7 @@ class InstanceGraph:
         if _kind(r, self._kinds) == 'gprim' and own not in (2, 3):
             node.gprims.append((r, own))
         proto = r.GetPrototype()
-        child = self._node(str(proto.GetPath()), proto, None, include_root=False)
-        node.refs.append(Ref(child, None, own, r.GetPath(), proto.GetPath(), True))
+        node.refs.append(Ref(self._prototype_node(proto), None, own, r.GetPath(), proto.GetPath(), True))
         return self.index[key]
 
     # ------------------------------------------------------------------ motion
@@ -352,41 +362,45 @@ class InstanceGraph:
         node = self.nodes[n]
         acc = out.setdefault(n, Placements())
         acc.matrices.append(world); acc.purpose.append(purpose); acc.maps.append(maps); acc.labels.append(labels)
-        m = len(world)
-        groups: dict[int, list] = {}
-        for ref, rel in zip(node.refs, node.ref_xf):
-            w = world @ rel[None]
-            p = np.full(m, ref.purpose, np.int8) if ref.purpose != INHERIT else purpose
-            if ref.prototype is None:
-                new_maps = maps
-                lab = [str(self._map_path(int(mi), ref.label)) for mi in maps]
-            else:
-                new_maps, lab = self._descend(maps, ref)
-            groups.setdefault(ref.child, []).append((w, p, new_maps, lab))
+        m, groups = len(world), []
+        if node.refs:                       # all refs x all placements at once, row = parent * n + ref
+            own = np.array([r.purpose for r in node.refs], np.int8)
+            groups.append((np.tile([r.child for r in node.refs], m),
+                           (world[:, None] @ node.ref_xf[None]).reshape(-1, *world.shape[1:]),
+                           np.where(own[None] == INHERIT, purpose[:, None], own[None]).ravel(),
+                           *self._descend(maps, node.refs)))
         for inst, (child, rel) in zip(node.instancers, node.pi_rows):
-            if len(child) == 0:
-                continue
-            for c in np.unique(child):
-                sel = rel[child == c]                                   # (k, K, 4, 4)
-                w = (world[:, None] @ sel[None]).reshape(-1, *sel.shape[1:])
-                k = len(sel)
+            if len(child):                  # PI instances inherit the parent's namespace map
+                k = len(child)
                 lab = [str(self._map_path(int(mi), inst.prim.GetPath())) for mi in maps]
-                groups.setdefault(int(c), []).append(
-                    (w, np.zeros(m * k, np.int8), np.repeat(maps, k), [x for x in lab for _ in range(k)]))
-        for child, parts in groups.items():
-            self._visit(child, np.concatenate([g[0] for g in parts]), np.concatenate([g[1] for g in parts]),
-                        np.concatenate([g[2] for g in parts]), [x for g in parts for x in g[3]], out, depth + 1)
+                groups.append((np.tile(child, m), (world[:, None] @ rel[None]).reshape(-1, *rel.shape[1:]),
+                               np.zeros(m * k, np.int8), np.repeat(maps, k), [x for x in lab for _ in range(k)]))
+        if not groups:
+            return
+        child = np.concatenate([g[0] for g in groups])
+        mats, pur, mps = (np.concatenate([g[i] for g in groups]) for i in (1, 2, 3))
+        labs = [x for g in groups for x in g[4]]
+        for c in np.unique(child):
+            sel = np.flatnonzero(child == c)
+            self._visit(int(c), mats[sel], pur[sel], mps[sel], [labs[i] for i in sel], out, depth + 1)
 
     def _map_path(self, map_id: int, path: Sdf.Path) -> Sdf.Path:
         src, dst, _ = self.maps[map_id]
         return path if src == dst else path.ReplacePrefix(src, dst)
 
-    def _descend(self, maps: np.ndarray, ref: Ref):
-        """New namespace maps for a native instance reference under each parent map."""
-        new, labels = np.empty(len(maps), np.int64), []
-        for i, mi in enumerate(maps):
-            dst = self._map_path(int(mi), ref.label)
-            self.maps.append((ref.prototype, dst, self.maps[int(mi)][2] or ref.needs_binding))
-            new[i] = len(self.maps) - 1
-            labels.append(str(dst))
-        return new, labels
+    def _descend(self, maps: np.ndarray, refs: list[Ref]) -> tuple[np.ndarray, list[str]]:
+        """Namespace maps and labels for every (parent placement, reference) pair: a native
+        instance starts a new map (its prototype read under the instance's composed path);
+        other references keep the parent's."""
+        new, labels = [], []
+        for mi in maps.tolist():
+            src, dst, needs = self.maps[mi]
+            for r in refs:
+                path = r.label if src == dst else r.label.ReplacePrefix(src, dst)
+                if r.prototype is None:
+                    new.append(mi)
+                else:
+                    self.maps.append((r.prototype, path, needs or r.needs_binding))
+                    new.append(len(self.maps) - 1)
+                labels.append(str(path))
+        return np.array(new, np.int64), labels

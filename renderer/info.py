@@ -1,0 +1,80 @@
+"""`rtc info SCENE.usd`: what the renderer would see, without rendering.
+
+`describe` summarises a SceneDescription (prototypes and how often each is placed, unique vs
+instanced triangles, lights, camera, materials, textures, warnings, skipped prims); `info_cmd`
+is the click command wrapping `read_stage` + `describe`.
+"""
+from __future__ import annotations
+
+import sys
+from collections import Counter
+
+import click
+import numpy as np
+
+from renderer.description import MODEL_NAMES, SceneDescription
+from renderer.errors import SceneError
+
+LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome')
+MODEL_LABELS = {v: k for k, v in MODEL_NAMES.items()}
+MAX_LISTED = 20
+
+
+def describe(desc: SceneDescription) -> str:
+    inst = desc.instances
+    per_container = np.bincount(inst.container, minlength=len(desc.containers)) if inst.count else \
+        np.zeros(len(desc.containers), np.int64)
+    unique, instanced = desc.triangle_counts()
+    spheres = sum(len(c.spheres) for c in desc.containers)
+    placed_spheres = sum(len(c.spheres) * int(n) for c, n in zip(desc.containers, per_container))
+    lines = [f'{desc.source}',
+             f'  up axis {desc.up_axis} (description is Y-up), metersPerUnit {desc.meters_per_unit:g}',
+             f'  prototypes (containers): {len(desc.containers)}, placements: {inst.count}, '
+             f'motion samples: {inst.motion_steps} at t = {", ".join(f"{t:g}" for t in desc.shutter_times)}',
+             f'  triangles: {unique} unique, {instanced} instanced; '
+             f'spheres: {spheres} unique, {placed_spheres} instanced']
+    order = np.argsort(-per_container, kind='stable')
+    for c in order[:MAX_LISTED]:
+        container = desc.containers[c]
+        tris = sum(len(m.triangles) for m in container.meshes)
+        lines.append(f'    {container.key}: {len(container.meshes)} meshes ({tris} triangles), '
+                     f'{len(container.spheres)} spheres, placed {int(per_container[c])}x')
+    if len(order) > MAX_LISTED:
+        lines.append(f'    ... {len(order) - MAX_LISTED} more')
+    kinds = Counter(LIGHT_NAMES[light.type] for light in desc.lights)
+    lines.append(f'  lights: {len(desc.lights)} (' + ', '.join(f'{k} {n}' for k, n in sorted(kinds.items())) + ')')
+    cam, s = desc.camera, desc.settings
+    lines.append(f'  camera: {cam.path} {cam.projection}, focal length {cam.focal_length:g}, aperture '
+                 f'{cam.horizontal_aperture:g} x {cam.vertical_aperture:g}, lens radius {cam.lens_radius:g}, '
+                 f'focus {cam.focus_distance:g}, shutter [{cam.shutter_open:g}, {cam.shutter_close:g}]'
+                 + (f', {len(cam.motion)} motion samples' if cam.motion is not None else ''))
+    lines.append(f'  image {s.width} x {s.height}, spp {s.samples_per_pixel or "default"}, '
+                 f'background {tuple(round(x, 4) for x in desc.background)}')
+    models = Counter(MODEL_LABELS.get(m.model, str(m.model)) for m in desc.materials)
+    lines.append(f'  materials: {len(desc.materials)} (' + ', '.join(f'{k} {n}' for k, n in sorted(models.items()))
+                 + f'), material sets: {len(inst.material_sets)}')
+    lines.append(f'  textures: {len(desc.textures)}')
+    for t in desc.textures[:MAX_LISTED]:
+        h, w = t.pixels.shape[:2]
+        lines.append(f'    {t.path} ({w} x {h}, {t.pixels.shape[2]} channels)')
+    for title, items in (('warnings', desc.warnings), ('skipped', desc.skipped)):
+        lines.append(f'  {title}: {len(items)}')
+        lines += [f'    {x}' for x in items[:MAX_LISTED]]
+        if len(items) > MAX_LISTED:
+            lines.append(f'    ... {len(items) - MAX_LISTED} more')
+    return '\n'.join(lines)
+
+
+@click.command('info')
+@click.argument('scene', type=click.Path(dir_okay=False))
+@click.option('--time', 'time', type=float, default=None, help='time code (default: startTimeCode)')
+@click.option('--camera', 'camera_path', default=None, help='camera prim path')
+def info_cmd(scene: str, time, camera_path) -> None:
+    """Summarise what the renderer reads from a USD SCENE."""
+    from renderer.stage_reader import read_stage
+    try:
+        desc = read_stage(scene, time=time, camera_path=camera_path)
+    except SceneError as exc:
+        click.echo(f'error: {exc}', err=True)
+        sys.exit(2)
+    click.echo(describe(desc))

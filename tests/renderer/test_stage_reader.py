@@ -1,0 +1,535 @@
+"""renderer.stage_reader against independent computations.
+
+The central check expands every corpus file by brute force -- `Usd.PrimRange` through instance
+proxies, one Python iteration per PointInstancer instance, `XformCache.GetLocalToWorldTransform`
+-- and compares the world-space placement of every gprim with what the flattened description
+gives (container geometry x placement matrix).
+"""
+from __future__ import annotations
+
+import math
+from collections import defaultdict
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
+
+from renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
+from renderer.errors import SceneError
+from renderer.info import describe, info_cmd
+from renderer.stage_reader import read_stage, rotate_x
+from renderer.usd_geometry import GeometryError, convert_gprim, converter_for
+from renderer.usd_instancing import InstanceGraph
+
+CORPUS = Path(__file__).resolve().parents[2].parent / 'shared' / 'corpus' / 'usd'
+IMAGING = CORPUS / 'openusd' / 'pxr' / 'usdImaging' / 'usdImagingGL' / 'testenv'
+PI = UsdGeom.PointInstancer
+
+
+def corpus_files() -> list[Path]:
+    if not CORPUS.is_dir():
+        return []
+    return sorted(p for ext in ('usd', 'usda', 'usdc', 'usdz') for p in CORPUS.rglob(f'*.{ext}'))
+
+
+needs_corpus = pytest.mark.skipif(not CORPUS.is_dir(), reason=f'USD corpus not found at {CORPUS}')
+
+
+# --------------------------------------------------------------------------- brute force
+def _np(m: Gf.Matrix4d) -> np.ndarray:
+    return np.array(m).T
+
+
+def _purpose_below(prim: Usd.Prim, root: Usd.Prim) -> str:
+    """Purpose counting only opinions from `root` down (PointInstancer prototype rule)."""
+    p = prim
+    while True:
+        attr = UsdGeom.Imageable(p).GetPurposeAttr()
+        if p.IsA(UsdGeom.Imageable) and attr.HasAuthoredValue():
+            return attr.Get()
+        if p == root:
+            return 'default'
+        p = p.GetParent()
+
+
+def _invisible_below(prim: Usd.Prim, root: Usd.Prim, t) -> bool:
+    p = prim
+    while True:
+        attr = UsdGeom.Imageable(p).GetVisibilityAttr()
+        if p.IsA(UsdGeom.Imageable) and attr.Get(t) == 'invisible':
+            return True
+        if p == root:
+            return False
+        p = p.GetParent()
+
+
+def brute_force(stage: Usd.Stage, t: float) -> list[tuple[Usd.Prim, np.ndarray]]:
+    """Every rendered (gprim, gprim-to-world matrix), one Python step per instance."""
+    xc, tc, out = UsdGeom.XformCache(Usd.TimeCode(t)), Usd.TimeCode(t), []
+
+    def point_instancer(prim, world):
+        pi = PI(prim)
+        targets = pi.GetPrototypesRel().GetForwardedTargets()
+        idx = pi.GetProtoIndicesAttr().Get(tc) or []
+        xf = pi.ComputeInstanceTransformsAtTime(tc, tc, PI.IncludeProtoXform, PI.IgnoreMask)
+        mask = pi.ComputeMaskAtTime(tc)
+        if len(xf) != len(idx):
+            return
+        for i, proto_index in enumerate(idx):
+            if (len(mask) and not mask[i]) or not 0 <= proto_index < len(targets):
+                continue
+            root = stage.GetPrimAtPath(targets[proto_index])
+            if not root or not root.IsActive() or not root.HasDefiningSpecifier() or root.IsAbstract():
+                continue
+            inst_world = _np(xf[i]) if world is None else world @ _np(xf[i])
+            pred = Usd.TraverseInstanceProxies(Usd.PrimIsActive & Usd.PrimHasDefiningSpecifier
+                                               & ~Usd.PrimIsAbstract & Usd.PrimIsLoaded)
+            it = iter(Usd.PrimRange(root, pred))
+            for q in it:
+                if _invisible_below(q, root, tc):
+                    it.PruneChildren()
+                    continue
+                rel = np.eye(4) if q == root else _np(xc.ComputeRelativeTransform(q, root)[0])
+                if q.IsA(PI):
+                    point_instancer(q, inst_world @ rel)
+                    it.PruneChildren()
+                elif converter_for(q.GetTypeName()) and _purpose_below(q, root) in ('default', 'render'):
+                    out.append((q, inst_world @ rel))
+
+    it = iter(Usd.PrimRange(stage.GetPseudoRoot(), Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)))
+    for prim in it:
+        if prim.IsPseudoRoot():
+            continue
+        img = UsdGeom.Imageable(prim)
+        if img and img.ComputeVisibility(tc) == 'invisible':
+            it.PruneChildren()
+            continue
+        if prim.IsA(PI):
+            point_instancer(prim, _np(xc.GetLocalToWorldTransform(prim)))
+            it.PruneChildren()
+        elif converter_for(prim.GetTypeName()) and img.ComputePurpose() in ('default', 'render'):
+            out.append((prim, _np(xc.GetLocalToWorldTransform(prim))))
+    return out
+
+
+def _identity_key(prim: Usd.Prim) -> str:
+    return str((prim.GetPrimInPrototype() if prim.IsInstanceProxy() else prim).GetPath())
+
+
+def expected_placements(stage, desc) -> dict[str, list[np.ndarray]]:
+    """gprim path (in its prototype) -> world points (meshes) / world matrix (spheres), brute force."""
+    up = rotate_x(-90) if desc.up_axis == 'Z' else np.eye(4)
+    t = float(stage.GetStartTimeCode())
+    out = defaultdict(list)
+    for prim, world in brute_force(stage, desc.shutter_times[0]):
+        try:
+            shapes = convert_gprim(prim, np.eye(4), Usd.TimeCode(t), lambda _: None)
+        except GeometryError:
+            continue
+        if not np.all(np.abs(np.linalg.det(world[:3, :3])) > 1e-300):
+            continue
+        w = up @ world
+        shape = shapes[0]
+        out[_identity_key(prim)].append(w @ shape.matrix if not isinstance(shape, Mesh)
+                                        else shape.points @ w[:3, :3].T + w[:3, 3])
+    return out
+
+
+def actual_placements(stage, desc) -> dict[str, list[np.ndarray]]:
+    out = defaultdict(list)
+    inst = desc.instances
+    for row in range(inst.count):
+        container = desc.containers[inst.container[row]]
+        m = inst.matrices[row, 0]
+        seen = set()
+        for g in container.gprims:
+            path = Sdf.Path(g.path)
+            prim = stage.GetPrimAtPath(path)
+            if prim and prim.IsA(UsdGeom.Subset):
+                path = path.GetParentPath()
+            if path in seen:
+                continue
+            seen.add(path)
+            out[str(path)].append(m @ g.matrix if not isinstance(g, Mesh)
+                                  else g.points @ m[:3, :3].T + m[:3, 3])
+    return out
+
+
+def assert_same_placements(stage, desc):
+    expected, actual = expected_placements(stage, desc), actual_placements(stage, desc)
+    assert {k: len(v) for k, v in actual.items()} == {k: len(v) for k, v in expected.items()}
+    for key in expected:
+        order = lambda arrs: sorted(arrs, key=lambda a: tuple(np.round(np.concatenate(
+            [a.mean(axis=0), a[:, -1], a.ravel()]), 6)))
+        for a, e in zip(order(actual[key]), order(expected[key])):
+            scale = max(1.0, float(np.abs(e).max()))
+            np.testing.assert_allclose(a, e, atol=1e-9 * scale, rtol=0, err_msg=key)
+
+
+# --------------------------------------------------------------------------- corpus
+INSTANCING_FILES = [
+    'testUsdImagingGLInstancing/nestedInstancedCubes.usda',
+    'testUsdImagingGLInstancing/instance2.usda',
+    'testUsdImagingGLInstancing/instancedCubes2NoInstancing.usda',
+    'testUsdImagingGLInstancing/ni_pi.usda',
+    'testUsdImagingGLInstancing/pi_ni_xform.usda',
+    'testUsdImagingGLPointInstancer/pi_masking.usda',
+    'testUsdImagingGLPointInstancer/pi_pi.usda',
+    'testUsdImagingGLPointInstancer/pi_ni_pi.usda',
+    'testUsdImagingGLPointInstancer/pi_varying.usda',
+    'testUsdImagingGLPointInstancer/pi_root_prototype.usda',
+    'testUsdImagingGLPointInstancer/pi_sibling_pi_over.usda',
+    'testUsdImagingGLInheritedPurpose/InheritedPurposes_Nested_Instances.usd',
+]
+
+
+@needs_corpus
+@pytest.mark.parametrize('name', INSTANCING_FILES)
+def test_instancing_files_match_brute_force(name):
+    stage = Usd.Stage.Open(str(IMAGING / name))
+    assert_same_placements(stage, read_stage(stage))
+
+
+@needs_corpus
+def test_every_corpus_file_matches_brute_force():
+    """Each corpus file usd-core opens is read without an exception, and its flattened
+    placements equal the brute-force expansion (~5 s for the whole corpus)."""
+    files = corpus_files()
+    assert len(files) > 100
+    for path in files:
+        stage = Usd.Stage.Open(str(path))
+        desc = read_stage(stage)
+        assert desc.camera is not None and desc.lights, path
+        assert_same_placements(stage, desc)
+
+
+@needs_corpus
+def test_known_counts():
+    nested = read_stage(IMAGING / 'testUsdImagingGLInstancing/nestedInstancedCubes.usda')
+    assert (len(nested.containers), nested.instances.count) == (1, 12)
+    assert nested.triangle_counts() == (12, 144)
+    masked = read_stage(IMAGING / 'testUsdImagingGLPointInstancer/pi_masking.usda')
+    stage = Usd.Stage.Open(str(IMAGING / 'testUsdImagingGLPointInstancer/pi_masking.usda'))
+    total = sum(len(PI(p).GetProtoIndicesAttr().Get(stage.GetStartTimeCode()) or [])
+                for p in stage.Traverse() if p.IsA(PI))
+    assert masked.instances.count == 4 < total                # masked instances are excluded
+    pi_pi = read_stage(IMAGING / 'testUsdImagingGLPointInstancer/pi_pi.usda')
+    assert pi_pi.instances.count == 24 and pi_pi.triangle_counts()[1] == 288
+
+
+@needs_corpus
+def test_earth_nested_instances():
+    """Earth.usd: 301 native instances of 61 prototypes (its meshes are empty, so they are
+    skipped as geometry but the instance graph must still have them all)."""
+    stage = Usd.Stage.Open(str(CORPUS / 'openusd/pxr/usd/usd/testenv/'
+                               'testUsdLoadUnloadDeepNestedInstancing.testenv/Earth.usd'))
+    graph = InstanceGraph(stage, Usd.TimeCode(0), lambda _: None)
+    graph.build()
+    graph.evaluate([0.0])
+    placed = graph.flatten(np.eye(4)[None])
+    prototypes = [n for n, node in enumerate(graph.nodes) if node.key.startswith('/__Prototype')]
+    assert len(prototypes) == 61 == len(stage.GetPrototypes())
+    assert sum(len(np.concatenate(placed[n].maps)) for n in prototypes) == 301
+    assert all('empty mesh' in s for s in read_stage(stage).skipped)
+
+
+# --------------------------------------------------------------------------- hand-made stages
+def _stage(up='Y') -> Usd.Stage:
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, up)
+    UsdGeom.SetStageMetersPerUnit(stage, 1.0)
+    UsdGeom.Xform.Define(stage, '/World')
+    return stage
+
+
+def _tri_mesh(stage, path, points, counts, indices, **attrs):
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(points)
+    mesh.CreateFaceVertexCountsAttr(counts)
+    mesh.CreateFaceVertexIndicesAttr(indices)
+    mesh.CreateSubdivisionSchemeAttr('none')
+    for k, v in attrs.items():
+        mesh.GetPrim().GetAttribute(k).Set(v)
+    return mesh
+
+
+def _quat(axis, degrees):
+    return Gf.Rotation(Gf.Vec3d(*axis), degrees).GetQuat()
+
+
+def test_point_instancer_matrices_match_hand_computed_trs():
+    stage = _stage()
+    pi = PI.Define(stage, '/World/Scatter')
+    pi.AddTranslateOp().Set(Gf.Vec3d(0, 10, 0))
+    UsdGeom.Sphere.Define(stage, '/World/Scatter/Protos/Ball').CreateRadiusAttr(0.5)
+    pi.CreatePrototypesRel().SetTargets(['/World/Scatter/Protos/Ball'])
+    rng = np.random.default_rng(7)
+    n = 200
+    pos = rng.uniform(-5, 5, (n, 3))
+    axes = rng.normal(size=(n, 3))
+    angles = rng.uniform(0, 360, n)
+    scales = rng.uniform(0.5, 2, (n, 3))
+    quats = [Gf.Quatf(_quat(a, d)) for a, d in zip(axes, angles)]
+    pi.CreateProtoIndicesAttr(Vt.IntArray([0] * n))
+    pi.CreatePositionsAttr(Vt.Vec3fArray([Gf.Vec3f(*p) for p in pos]))
+    pi.CreateOrientationsfAttr(Vt.QuatfArray(quats))
+    pi.CreateScalesAttr(Vt.Vec3fArray([Gf.Vec3f(*s) for s in scales]))
+    pi.CreateIdsAttr(Vt.Int64Array(range(n)))
+    pi.CreateInvisibleIdsAttr(Vt.Int64Array([3, 4]))
+    desc = read_stage(stage)
+    assert desc.instances.count == n - 2
+    got = desc.instances.matrices[:, 0]
+    keep = [i for i in range(n) if i not in (3, 4)]
+    for row, i in enumerate(keep):
+        q = quats[i]
+        w, (x, y, z) = q.GetReal(), q.GetImaginary()
+        r = np.array([[1 - 2 * (y * y + z * z), 2 * (x * y - z * w), 2 * (x * z + y * w)],
+                      [2 * (x * y + z * w), 1 - 2 * (x * x + z * z), 2 * (y * z - x * w)],
+                      [2 * (x * z - y * w), 2 * (y * z + x * w), 1 - 2 * (x * x + y * y)]])
+        expected = np.eye(4)
+        expected[:3, :3] = r @ np.diag(np.float32(scales[i]).astype(np.float64))
+        expected[:3, 3] = np.float32(pos[i]).astype(np.float64) + (0, 10, 0)
+        np.testing.assert_allclose(got[row], expected, atol=1e-5)
+
+
+def _outward(mesh: Mesh, centre) -> np.ndarray:
+    """Dot products of each triangle's CCW normal with the direction from `centre`."""
+    p = mesh.points[mesh.triangles]
+    n = np.cross(p[:, 1] - p[:, 0], p[:, 2] - p[:, 0])
+    return np.einsum('ij,ij->i', n, p.mean(axis=1) - centre)
+
+
+CUBE_POINTS = [(-1, -1, -1), (1, -1, -1), (1, 1, -1), (-1, 1, -1),
+               (-1, -1, 1), (1, -1, 1), (1, 1, 1), (-1, 1, 1)]
+CUBE_FACES_CCW = [0, 3, 2, 1, 4, 5, 6, 7, 0, 1, 5, 4, 2, 3, 7, 6, 1, 2, 6, 5, 0, 4, 7, 3]
+
+
+@pytest.mark.parametrize('left, mirror', [(False, False), (True, False), (False, True), (True, True)])
+def test_triangles_face_outward(left, mirror):
+    stage = _stage()
+    indices = CUBE_FACES_CCW
+    if left:                                   # leftHanded: the same faces listed clockwise
+        indices = [i for k in range(0, 24, 4) for i in reversed(CUBE_FACES_CCW[k:k + 4])]
+    mesh = _tri_mesh(stage, '/World/Box', CUBE_POINTS, [4] * 6, indices)
+    if left:
+        mesh.CreateOrientationAttr('leftHanded')
+    mesh.AddTranslateOp().Set(Gf.Vec3d(3, 0, 0))
+    mesh.AddScaleOp().Set(Gf.Vec3f(-1 if mirror else 1, 2, 1))
+    desc = read_stage(stage)
+    (m,) = desc.containers[0].meshes
+    assert len(m.triangles) == 12
+    assert np.all(_outward(m, np.array([3.0, 0, 0])) > 0)
+
+
+def test_quadrics_face_outward_with_smooth_normals():
+    stage = _stage()
+    for i, kind in enumerate((UsdGeom.Cube, UsdGeom.Cylinder, UsdGeom.Cone, UsdGeom.Capsule)):
+        g = kind.Define(stage, f'/World/S{i}')
+        g.AddTranslateOp().Set(Gf.Vec3d(4 * i, 0, 0))
+        if kind is not UsdGeom.Cube:
+            g.GetAxisAttr().Set('X')
+    desc = read_stage(stage)
+    for m in desc.containers[0].meshes:
+        centre = (m.points.min(axis=0) + m.points.max(axis=0)) / 2
+        assert np.all(_outward(m, centre) > -1e-12), m.path
+        p = m.points[m.triangles]
+        assert np.all(np.einsum('ijk,ijk->ij', m.normals, p - centre) > 0), m.path
+
+
+def test_authored_normals_and_uvs_per_corner():
+    stage = _stage()
+    mesh = _tri_mesh(stage, '/World/Quad', [(0, 0, 0), (1, 0, 0), (1, 1, 0), (0, 1, 0)], [4], [0, 1, 2, 3])
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar('normals', Sdf.ValueTypeNames.Normal3fArray, 'faceVarying')
+    pv.Set([(0, 0, 1)])
+    pv.SetIndices(Vt.IntArray([0, 0, 0, 0]))
+    st = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar('st', Sdf.ValueTypeNames.TexCoord2fArray, 'vertex')
+    st.Set([(0, 0), (1, 0), (1, 1), (0, 1)])
+    mesh.AddScaleOp().Set(Gf.Vec3f(1, 1, -2))            # mirrored: normal must flip to -Z
+    (m,) = read_stage(stage).containers[0].meshes
+    np.testing.assert_allclose(m.normals.reshape(-1, 3), np.tile([0, 0, -1], (6, 1)), atol=1e-7)
+    np.testing.assert_allclose(m.uvs[:, :, 0], m.points[m.triangles][:, :, 0], atol=1e-7)
+
+
+def test_bad_gprims_are_skipped_not_fatal():
+    stage = _stage()
+    UsdGeom.Sphere.Define(stage, '/World/Zero').CreateRadiusAttr(0.0)
+    _tri_mesh(stage, '/World/NaN', [(0, 0, 0), (1, float('nan'), 0), (0, 1, 0)], [3], [0, 1, 2])
+    _tri_mesh(stage, '/World/BadIndex', [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 7])
+    UsdGeom.Sphere.Define(stage, '/World/Ok')
+    desc = read_stage(stage)
+    assert [s.path for c in desc.containers for s in c.spheres] == ['/World/Ok']
+    assert sorted(s.split(':')[0] for s in desc.skipped) == ['/World/BadIndex', '/World/NaN', '/World/Zero']
+
+
+def _preview_material(stage, path, rgb):
+    mat = UsdShade.Material.Define(stage, path)
+    sh = UsdShade.Shader.Define(stage, f'{path}/Surface')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*rgb))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    return mat
+
+
+def test_material_binding_resolves_per_instance():
+    stage = _stage()
+    grey = _preview_material(stage, '/World/Looks/Grey', (0.5, 0.5, 0.5))
+    red = _preview_material(stage, '/World/Looks/Red', (1, 0, 0))
+    blue = _preview_material(stage, '/World/Looks/Blue', (0, 0, 1))
+    UsdGeom.Xform.Define(stage, '/Protos/Thing')
+    ball = UsdGeom.Sphere.Define(stage, '/Protos/Thing/Ball')
+    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(grey)
+    stage.GetPrimAtPath('/Protos').SetSpecifier(Sdf.SpecifierOver)
+    for i, (mat, strength) in enumerate([(None, None), (red, UsdShade.Tokens.strongerThanDescendants),
+                                         (blue, UsdShade.Tokens.weakerThanDescendants),
+                                         (red, UsdShade.Tokens.strongerThanDescendants)]):
+        x = UsdGeom.Xform.Define(stage, f'/World/I{i}')
+        x.GetPrim().GetReferences().AddInternalReference('/Protos/Thing')
+        x.GetPrim().SetInstanceable(True)
+        x.AddTranslateOp().Set(Gf.Vec3d(3 * i, 0, 0))
+        if mat:
+            UsdShade.MaterialBindingAPI.Apply(x.GetPrim()).Bind(mat, strength)
+    desc = read_stage(stage)
+    inst = desc.instances
+    colour = {inst.paths[r]: desc.materials[inst.material_sets[inst.material_set[r]][0]].diffuse
+              for r in range(inst.count)}
+    assert colour == {'/World/I0': (0.5, 0.5, 0.5), '/World/I1': (1.0, 0.0, 0.0),
+                      '/World/I2': (0.5, 0.5, 0.5), '/World/I3': (1.0, 0.0, 0.0)}
+    assert len(inst.material_sets) == 2 and len(desc.containers) == 1
+
+
+def test_z_up_stage_is_rotated_to_y_up():
+    stage = _stage('Z')
+    ball = UsdGeom.Sphere.Define(stage, '/World/Ball')
+    ball.AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
+    light = UsdLux.DistantLight.Define(stage, '/World/Sun')            # shines down -Z = down in Z-up
+    cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, -10, 0))
+    cam.AddRotateXOp().Set(90.0)                                       # looks along +Y (Z-up "forward")
+    desc = read_stage(stage)
+    assert desc.up_axis == 'Z'
+    (sphere,) = desc.containers[0].spheres
+    world = desc.instances.matrices[0, 0] @ sphere.matrix
+    np.testing.assert_allclose(world[:3, 3], (1, 3, -2), atol=1e-12)
+    sun = next(l for l in desc.lights if l.type == DISTANT)
+    np.testing.assert_allclose(sun.matrix[:3, :3] @ (0, 0, -1), (0, -1, 0), atol=1e-12)
+    np.testing.assert_allclose(desc.camera.matrix[:3, :3] @ (0, 0, -1), (0, 0, -1), atol=1e-12)
+    np.testing.assert_allclose(desc.camera.matrix[:3, 3], (0, 0, 10), atol=1e-12)
+
+
+def test_light_radiance_normalize_on_and_off():
+    stage = _stage()
+    rect = UsdLux.RectLight.Define(stage, '/World/Rect')
+    rect.CreateWidthAttr(2.0); rect.CreateHeightAttr(0.5)
+    rect.CreateIntensityAttr(10.0); rect.CreateExposureAttr(1.0); rect.CreateColorAttr((1, 0.5, 0.25))
+    rect.AddScaleOp().Set(Gf.Vec3f(3, 1, 1))
+    rect_n = UsdLux.RectLight.Define(stage, '/World/RectN')
+    rect_n.CreateWidthAttr(2.0); rect_n.CreateHeightAttr(0.5); rect_n.CreateIntensityAttr(10.0)
+    rect_n.CreateNormalizeAttr(True)
+    rect_n.AddScaleOp().Set(Gf.Vec3f(3, 1, 1))
+    point = UsdLux.SphereLight.Define(stage, '/World/Point')
+    point.CreateRadiusAttr(0.0); point.CreateIntensityAttr(8.0)
+    ball = UsdLux.SphereLight.Define(stage, '/World/Ball')
+    ball.CreateRadiusAttr(2.0); ball.CreateIntensityAttr(8.0); ball.CreateNormalizeAttr(True)
+    sun = UsdLux.DistantLight.Define(stage, '/World/Sun')
+    sun.CreateAngleAttr(10.0); sun.CreateIntensityAttr(2.0)
+    lights = {l.path: l for l in read_stage(stage).lights}
+    r = lights['/World/Rect']
+    assert r.type == RECT and (r.width, r.height) == pytest.approx((6.0, 0.5))
+    assert r.radiance == pytest.approx((20.0, 10.0, 5.0))                    # 10 * 2^1 * colour
+    assert lights['/World/RectN'].radiance == pytest.approx((10 / 3.0,) * 3)  # / world area 6 * 0.5
+    assert lights['/World/Point'].type == POINT and lights['/World/Point'].radiance == pytest.approx((2.0,) * 3)
+    b = lights['/World/Ball']
+    assert b.type == SPHERE and b.radiance == pytest.approx((8 / (4 * math.pi * 4),) * 3)
+    s = lights['/World/Sun']
+    assert s.radiance == pytest.approx((2 * math.pi * math.sin(math.radians(5)) ** 2,) * 3)
+    np.testing.assert_allclose(r.matrix[:3, :3] @ r.matrix[:3, :3].T, np.eye(3), atol=1e-12)
+
+
+def test_render_settings_camera_and_overrides():
+    stage = _stage()
+    cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+    cam.CreateFocalLengthAttr(50.0); cam.CreateFStopAttr(2.0); cam.CreateFocusDistanceAttr(5.0)
+    cam.CreateHorizontalApertureAttr(36.0); cam.CreateVerticalApertureAttr(24.0)
+    UsdGeom.Cube.Define(stage, '/World/Ground').CreateSizeAttr(100.0)
+    from pxr import UsdRender
+    rs = UsdRender.Settings.Define(stage, '/Render/Settings')
+    rs.CreateResolutionAttr(Gf.Vec2i(300, 200)); rs.CreateCameraRel().SetTargets(['/World/Cam'])
+    rs.GetPrim().CreateAttribute('rtc:samplesPerPixel', Sdf.ValueTypeNames.Int, custom=True).Set(9)
+    rs.GetPrim().CreateAttribute('rtc:backgroundColor', Sdf.ValueTypeNames.Color3f, custom=True).Set((0.1, 0.2, 0.3))
+    stage.SetMetadata('renderSettingsPrimPath', '/Render/Settings')
+    desc = read_stage(stage, spp=4)
+    c = desc.camera
+    assert (desc.settings.width, desc.settings.height, desc.settings.samples_per_pixel) == (300, 200, 4)
+    assert desc.background == pytest.approx((0.1, 0.2, 0.3))
+    assert (c.focal_length, c.horizontal_aperture, c.vertical_aperture) == pytest.approx((5.0, 3.6, 2.4))
+    assert c.lens_radius == pytest.approx(5.0 / 4) and c.focus_distance == 5.0
+    assert read_stage(stage, width=200, height=200).camera.vertical_aperture == pytest.approx(3.6)
+
+
+def test_millimetre_lens_on_a_metre_scale_scene_is_rescaled():
+    stage = _stage()
+    cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+    cam.CreateFocalLengthAttr(50.0); cam.CreateFStopAttr(2.0); cam.CreateFocusDistanceAttr(3.0)
+    UsdGeom.Cube.Define(stage, '/World/Box').CreateSizeAttr(1.0)      # a 1.7 unit diagonal
+    desc = read_stage(stage)
+    assert desc.camera.lens_radius == pytest.approx(0.050 / 4)       # 50 mm at f/2
+    assert any('millimetres' in w for w in desc.warnings)
+
+
+def test_default_camera_and_lights_when_missing():
+    stage = _stage()
+    UsdGeom.Cube.Define(stage, '/World/Box').GetSizeAttr().Set(4.0)
+    desc = read_stage(stage)
+    assert desc.camera.path == '<default camera>'
+    assert {l.type for l in desc.lights} == {DISTANT, 5}
+    eye = desc.camera.matrix[:3, 3]
+    assert np.linalg.norm(eye) > 2 * math.sqrt(3)                      # outside the box
+    assert np.dot(desc.camera.matrix[:3, :3] @ (0, 0, -1), -eye / np.linalg.norm(eye)) > 0.999
+    assert any('default camera' in w for w in desc.warnings)
+
+
+def test_motion_samples_and_moving_plain_gprim():
+    stage = _stage()
+    cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+    cam.CreateShutterOpenAttr(0.0); cam.CreateShutterCloseAttr(1.0)
+    ball = UsdGeom.Sphere.Define(stage, '/World/Ball')
+    op = ball.AddTranslateOp()
+    for t, x in ((0, 0.0), (0.5, 1.0), (1, 4.0)):
+        op.Set(Gf.Vec3d(x, 0, 0), t)
+    UsdGeom.Sphere.Define(stage, '/World/Still')
+    desc = read_stage(stage)
+    assert desc.shutter_times == (0.0, 0.5, 1.0)
+    moving = [r for r in range(desc.instances.count)
+              if desc.containers[desc.instances.container[r]].spheres[0].path == '/World/Ball']
+    (row,) = moving
+    np.testing.assert_allclose(desc.instances.matrices[row, :, 0, 3], (0, 1, 4))
+
+
+def test_corrupt_and_missing_files_raise_scene_error(tmp_path):
+    bad = tmp_path / 'bad.usda'
+    bad.write_text('#usda 1.0\ndef Xform "A" {\n  double3 xformOp:translate = (1, 2\n')
+    with pytest.raises(SceneError, match='bad.usda'):
+        read_stage(bad)
+    garbage = tmp_path / 'garbage.usdc'
+    garbage.write_bytes(b'PXR-USDC' + bytes(range(256)) * 4)
+    with pytest.raises(SceneError, match='garbage.usdc'):
+        read_stage(garbage)
+    with pytest.raises(SceneError, match='no such file'):
+        read_stage(tmp_path / 'missing.usd')
+    text = tmp_path / 'scene.txt'
+    text.write_text('hello')
+    with pytest.raises(SceneError, match='not a USD file'):
+        read_stage(text)
+
+
+def test_info_describes_and_exits_2_on_error(tmp_path):
+    from click.testing import CliRunner
+    stage = _stage()
+    UsdGeom.Sphere.Define(stage, '/World/Ball')
+    summary = describe(read_stage(stage))
+    assert 'placed 1x' in summary and 'distant 1' in summary
+    bad = tmp_path / 'bad.usda'
+    bad.write_text('#usda 1.0\ndef "A" {\n')
+    result = CliRunner().invoke(info_cmd, [str(bad)])
+    assert result.exit_code == 2 and 'bad.usda' in result.output
