@@ -11,7 +11,7 @@ import numpy as np
 
 from .diagnostics import Diagnostics
 from .obj import ObjMesh
-from .scene import Box, Cylinder, Geometry, MeshFile, Scene, Sphere, Triangle
+from .scene import Box, Cylinder, Geometry, Scene, Sphere, Triangle
 from .transforms import compose_many, singular_mask
 
 
@@ -21,7 +21,8 @@ def check_transforms(scene: Scene, diags: Diagnostics) -> None:
     transforms += [p.transform for p in scene.used_prototypes() if p.transform is not None]
     if not transforms:
         return
-    matrices = compose_many([t.ops for t in transforms])
+    with np.errstate(over="ignore", invalid="ignore"):
+        matrices = compose_many([t.ops for t in transforms])
     finite = np.isfinite(matrices).all(axis=(1, 2))
     singular = np.zeros(len(transforms), bool)
     singular[finite] = singular_mask(matrices[finite])

@@ -1,0 +1,16 @@
+"""Fixtures for the compiler tests."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from compiler_helpers import CORPUS
+
+
+@pytest.fixture(scope="session")
+def course_scenes() -> list[Path]:
+    course = CORPUS / "course"
+    if not course.is_dir():
+        pytest.skip(f"course corpus not found at {course} (shared/ must sit beside the repo)")
+    return sorted(course.rglob("*.xml"))
