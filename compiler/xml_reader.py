@@ -67,17 +67,17 @@ def _parse(path: Path, diags: Diagnostics):
     except OSError as exc:
         diags.error(f"cannot read the scene file: {exc.strerror or exc}")
         raise CompileError(diags.as_list()) from None
+    doctype = data.find(b"<!DOCTYPE")
+    if doctype >= 0:                            # refused before parsing: no entity is ever expanded
+        diags.error("a <!DOCTYPE> is not allowed in a scene file (entity declarations could expand "
+                    "without bound or read other files)", data.count(b"\n", 0, doctype) + 1)
+        raise CompileError(diags.as_list())
     try:
-        tree = etree.fromstring(data, _PARSER, base_url=str(path)).getroottree()
+        root = etree.fromstring(data, _PARSER, base_url=str(path))
     except etree.XMLSyntaxError as exc:
         line = exc.lineno if exc.lineno and exc.lineno > 0 else None
         diags.error(f"malformed XML: {exc.msg}", line)
         raise CompileError(diags.as_list()) from None
-    if tree.docinfo.doctype or tree.docinfo.internalDTD is not None:
-        diags.error("a <!DOCTYPE> is not allowed in a scene file (entity declarations could expand "
-                    "without bound or read other files)", 1)
-        raise CompileError(diags.as_list())
-    root = tree.getroot()
     if root.tag != "scene":
         diags.error("the root element must be <scene>", root.sourceline, str(root.tag))
         raise CompileError(diags.as_list())
@@ -93,6 +93,7 @@ class _Reader:
         self.shaders: dict[str, Shader] = {}
         self.prototypes: dict[str, Prototype] = {}
         self.used: set[int] = set()             # id() of referenced definitions
+        self.broken: set[tuple[int, str]] = set()  # (table, name) of definitions that had errors
 
     # ------------------------------------------------------------------ scene
     def scene(self, root) -> Scene:
@@ -158,9 +159,10 @@ class _Reader:
 
     # ------------------------------------------------------------------ definitions
     def _define(self, table: dict, obj, el, what: str) -> None:
-        if obj is None:
-            return
         name = el.get("name")
+        if obj is None:                         # already reported; later references stay quiet
+            self.broken.add((id(table), name))
+            return
         if name in table:
             self.diags.at(el).warning(f"{what} '{name}' is already defined at line {table[name].line}; "
                                       "the first definition is used (as the course parser does)")
@@ -177,6 +179,8 @@ class _Reader:
 
     def _lookup(self, table: dict, name: str, el, what: str):
         obj = table.get(name)
+        if obj is None and (id(table), name) in self.broken:
+            return None
         if obj is None:
             known = ", ".join(sorted(table)) or "none defined"
             self.diags.at(el).error(f"unknown {what} '{name}' (defined before this point: {known})")

@@ -1,0 +1,125 @@
+"""Bad input through `rtc compile`: exact message, exit status, and no output file left behind."""
+from __future__ import annotations
+
+import pytest
+
+from compiler_helpers import run_compile, write_scene
+
+SPHERE = '<shape name="s" type="sphere"><shader ref="grey"/><center>{c}</center><radius>{r}</radius>{x}</shape>'
+
+
+def sphere(c="0 0 0", r="1", x=""):
+    return SPHERE.format(c=c, r=r, x=x)
+
+
+CASES = {
+    "non-numeric": (sphere(c="0 0 x"), 2, ["11: error: <center>: expected 3 numbers, got '0 0 x'"]),
+    "wrong arity": (sphere(c="0 0"), 2, ["11: error: <center>: expected 3 numbers, got 2: '0 0'"]),
+    "nan": (sphere(r="NaN"), 2, ["11: error: <radius>: NaN and infinity are not allowed: 'NaN'"]),
+    "inf": (sphere(c="0 inf 0"), 2, ["11: error: <center>: NaN and infinity are not allowed: '0 inf 0'"]),
+    "negative radius": (sphere(r="-1"), 2, ["11: error: <radius>: must be positive, got -1"]),
+    "unknown shape type": (sphere().replace('"sphere"', '"spheer"'), 2,
+                           ["11: error: <shape>: attribute 'type': 'spheer' is not one of 'sphere', 'box', "
+                            "'triangle', 'cylinder', 'mesh', 'instance'"]),
+    "unknown shader type": ('<shader name="x" type="Mirrored"/>', 2,
+                            ["11: error: <shader>: attribute 'type': 'Mirrored' is not one of 'Lambertian', "
+                             "'LambertianPT', 'BlinnPhong', 'Phong', 'BlinnPhongMirrored', 'Mirror', 'Glaze', "
+                             "'Dielectric', 'CoolToWarm'"]),
+    "dangling shader": (sphere().replace('ref="grey"', 'ref="gray"'), 2,
+                        ["11: error: <shader>: unknown shader 'gray' (defined before this point: grey)",
+                         "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "dangling prototype": ('<shape name="s" type="instance" id="egg"/>', 2,
+                           ["11: error: <shape>: unknown instance prototype 'egg' (defined before this point: "
+                            "none defined)",
+                            "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "missing mesh": ('<instance name="m" type="mesh"><file>objFiles/none.obj</file><shader ref="grey"/></instance>'
+                     '<shape type="instance" id="m"/>', 2,
+                     ["11: error: <file>: mesh file 'objFiles/none.obj' not found (looked for {dir}/objFiles/none.obj)"]),
+    "missing texture": ('<texture name="t" type="image"><sourcefile>images/none.png</sourcefile></texture>', 2,
+                        ["11: error: <sourcefile>: texture image 'images/none.png' not found (looked for "
+                         "{dir}/images/none.png)",
+                         "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "singular transform": (sphere(x="<transform><scale>1 0 1</scale></transform>"), 2,
+                           ["11: error: <transform>: the transform is singular (a zero scale or collapsed axes): "
+                            "it has no inverse"]),
+    "collapsed axes": (sphere(x="<transform><scale>1 1e-300 1</scale><scale>1 1e-300 1</scale></transform>"), 2,
+                       ["11: error: <transform>: the transform is singular (a zero scale or collapsed axes): "
+                        "it has no inverse"]),
+    "overflowing transform": (sphere(x="<transform><scale>1e200 1 1</scale><scale>1e200 1 1</scale></transform>"), 2,
+                              ["11: error: <transform>: the transform is not finite (its product overflows)"]),
+    "bad axis": (sphere(x='<transform><rotate axis="x">30</rotate></transform>'), 2,
+                 ["11: error: <rotate>: attribute 'axis': 'x' is not one of 'X', 'Y', 'Z'"]),
+    "no shader": ('<shape name="s" type="sphere"><center>0 0 0</center><radius>1</radius></shape>', 2,
+                  ["11: error: <shape>: this shape needs a <shader> (the course requires one on every plain "
+                   "shape and prototype)",
+                   "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "missing geometry": ('<shape name="s" type="box"><shader ref="grey"/><minPt>0 0 0</minPt></shape>', 2,
+                         ["11: error: <shape>: a box needs <maxPt>"]),
+    # warnings: exit 1 with --strict, nothing written
+    "duplicate definition": ('<shader name="grey" type="Mirror"/>' + sphere(), 1,
+                             ["11: warning: <shader>: shader 'grey' is already defined at line 10; the first "
+                              "definition is used (as the course parser does)"]),
+    "unknown element and attribute": (sphere(x="<wireframe/>").replace('type="sphere"', 'type="sphere" color="red"'), 1,
+                                      ["11: warning: <shape>: unknown attribute 'color' ignored",
+                                       "11: warning: <wireframe>: unknown element ignored (not allowed inside <shape>)"]),
+    "greedy numbers": ('<shape name="b" type="box"><shader ref="grey"/><minPt>-5.5.0 0.0 -7.5</minPt>'
+                       '<maxPt>1 1 1</maxPt></shape>', 1,
+                       ["11: warning: <minPt>: malformed numbers '-5.5.0 0.0 -7.5' read as -5.5 0 0 (the "
+                        "course's C++ parser reads greedily); please fix the file"]),
+}
+
+
+@pytest.mark.parametrize("case", CASES, ids=list(CASES))
+def test_bad_scene(case, tmp_path):
+    body, status, lines = CASES[case]
+    scene = write_scene(tmp_path, body)
+    out = tmp_path / "out.usda"
+    result = run_compile(scene, "-o", out, "--strict")
+    expected = [f"{scene}:{line.format(dir=tmp_path)}" for line in lines]
+    assert (result.exit_code, result.stderr.splitlines()) == (status, expected)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.xml"]
+
+
+def test_warnings_without_strict_still_compile(tmp_path):
+    scene = write_scene(tmp_path, '<shader name="grey" type="Mirror"/>' + sphere())
+    result = run_compile(scene, "-o", tmp_path / "out.usda")
+    assert result.exit_code == 0 and "already defined" in result.stderr
+    assert (tmp_path / "out.usda").is_file()
+
+
+def test_malformed_xml(tmp_path):
+    scene = tmp_path / "scene.xml"
+    scene.write_text('<?xml version="1.0"?>\n<scene>\n<camera>\n</scene>\n')
+    result = run_compile(scene, "-o", tmp_path / "out.usda")
+    assert result.exit_code == 2
+    assert result.stderr == (f"{scene}:4: error: malformed XML: Opening and ending tag mismatch: camera line 3 "
+                             "and scene, line 4, column 9\n")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.xml"]
+
+
+def test_missing_scene_file(tmp_path):
+    result = run_compile(tmp_path / "none.xml", "-o", tmp_path / "out.usda")
+    assert (result.exit_code, result.stderr) == (2, f"{tmp_path}/none.xml: error: cannot read the scene file: "
+                                                    "No such file or directory\n")
+
+
+def test_unwritable_output_is_an_error_not_a_traceback(tmp_path):
+    scene = write_scene(tmp_path, sphere())
+    result = run_compile(scene, "-o", tmp_path / "no" / "such" / "dir" / "out.usda")
+    assert result.exit_code == 2 and "error: No such file or directory" in result.stderr
+
+
+def test_broken_obj_names_both_files(tmp_path):
+    (tmp_path / "bad.obj").write_text("v 0 0 0\nv 1 0 0\nf 1 2 3\n")
+    scene = write_scene(tmp_path, '<instance name="m" type="mesh"><file>bad.obj</file><shader ref="grey"/>'
+                                  '</instance><shape type="instance" id="m"/>')
+    result = run_compile(scene, "-o", tmp_path / "out.usda")
+    assert (result.exit_code, result.stderr) == (
+        2, f"{scene}:11: error: <file>: bad.obj:3: face refers to vertex 3, but the file defines 2 such entries\n")
+
+
+def test_check_only_writes_nothing(tmp_path):
+    scene = write_scene(tmp_path, sphere())
+    result = run_compile(scene, "--check")
+    assert (result.exit_code, result.stderr) == (0, "")
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["scene.xml"]
