@@ -60,8 +60,14 @@ def read_stage(source: Union[str, os.PathLike, Usd.Stage], *, time: Optional[flo
 
 
 def _first_line(exc: Exception) -> str:
-    lines = [ln.strip() for ln in str(exc).splitlines() if ln.strip()]
-    return lines[-1] if lines else type(exc).__name__
+    """The commentary of a pxr error (``Error in 'fn' at line N in file F : 'text'``), most
+    specific first, without the C++ function and source locations."""
+    notes = []
+    for line in str(exc).splitlines():
+        _, sep, text = line.strip().partition(" : '")
+        notes.append((text if sep else line).strip().rstrip("'").strip())
+    notes = [n for n in dict.fromkeys(notes) if n]
+    return '; '.join(notes[:2]) if notes else type(exc).__name__
 
 
 def _open(source) -> tuple[Usd.Stage, str]:
@@ -182,6 +188,9 @@ class _Reader:
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue
+            except (Tf.ErrorException, TypeError, ValueError) as exc:     # malformed attribute values
+                self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} ({_first_line(exc)})')
+                continue
             shapes += [_Shape(r, Sdf.Path(r.path), purpose != INHERIT) for r in records]
         # Container.gprims order: meshes first, then spheres
         return sorted(shapes, key=lambda s: isinstance(s.record, Sphere))
@@ -256,8 +265,7 @@ class _Reader:
             index[key] = found if found is not None else self.materials.fallback(prim)
         for (n, variant, subset, _, _, _) in rows:
             for s in subset:
-                s.record.material = index.get((n, None, s.binding_path), self.materials.fallback(
-                    self.stage.GetPrimAtPath(s.binding_path)))
+                s.record.material = index[(n, None, s.binding_path)]
         sets = {}
         for (n, variant, subset, _, maps, _) in rows:
             for u in np.unique(maps):
@@ -280,7 +288,11 @@ class _Reader:
                 break
             for prim, rel in zip(node.lights, node.light_xf):
                 for w in world:
-                    light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
+                    try:
+                        light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
+                    except (Tf.ErrorException, TypeError, ValueError) as exc:
+                        self.skipped.append(f'{prim.GetPath()}: unreadable light ({_first_line(exc)})')
+                        break
                     if light is not None:
                         lights.append(light)
         return lights

@@ -533,3 +533,51 @@ def test_info_describes_and_exits_2_on_error(tmp_path):
     bad.write_text('#usda 1.0\ndef "A" {\n')
     result = CliRunner().invoke(info_cmd, [str(bad)])
     assert result.exit_code == 2 and 'bad.usda' in result.output
+
+
+def test_course_material_and_texture_loaded_once(tmp_path):
+    import OpenImageIO as oiio
+    pixels = np.zeros((2, 4, 3), np.uint8)
+    pixels[..., 0] = 128                                       # sRGB 128 -> linear 0.2158
+    image = tmp_path / 'checker.png'
+    out = oiio.ImageOutput.create(str(image))
+    out.open(str(image), oiio.ImageSpec(4, 2, 3, 'uint8'))
+    out.write_image(pixels)
+    out.close()
+    stage = _stage()
+    for name in ('A', 'B'):
+        mat = UsdShade.Material.Define(stage, f'/World/Looks/{name}')
+        prim = mat.GetPrim()
+        prim.CreateAttribute('rtc:model', Sdf.ValueTypeNames.Token, custom=True).Set('blinnPhong')
+        prim.CreateAttribute('rtc:diffuse', Sdf.ValueTypeNames.Color3d, custom=True).Set((0.1, 0.2, 0.3))
+        prim.CreateAttribute('rtc:phongExp', Sdf.ValueTypeNames.Double, custom=True).Set(64.0)
+        prim.CreateAttribute('rtc:diffuseTexture', Sdf.ValueTypeNames.Asset, custom=True).Set(str(image))
+        ball = UsdGeom.Sphere.Define(stage, f'/World/{name}')
+        UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(mat)
+    _preview_material(stage, '/World/Looks/Unused', (1, 1, 1))
+    desc = read_stage(stage)
+    assert [m.path for m in desc.materials] == ['/World/Looks/A', '/World/Looks/B']
+    a = desc.materials[0]
+    assert (a.model, a.diffuse, a.exponent) == (1, (0.1, 0.2, 0.3), 64.0)
+    assert len(desc.textures) == 1 and a.diffuse_texture == desc.materials[1].diffuse_texture == 0
+    assert desc.textures[0].pixels[0, 0, 0] == pytest.approx(((128 / 255 + 0.055) / 1.055) ** 2.4, abs=1e-6)
+
+
+@needs_corpus
+def test_preview_surface_texture_from_corpus():
+    desc = read_stage(IMAGING / 'testUsdImagingGLPreviewSurface/testPreviewSurfaceTexture.usda')
+    textured = [m for m in desc.materials if m.diffuse_texture >= 0]
+    assert textured and textured[0].diffuse == (1.0, 1.0, 1.0)
+    tex = desc.textures[textured[0].diffuse_texture]
+    assert tex.pixels.dtype == np.float32 and tex.pixels.ndim == 3
+
+
+def test_malformed_attribute_values_skip_the_prim(tmp_path):
+    path = tmp_path / 'typos.usda'
+    path.write_text('#usda 1.0\ndef Xform "World" {\n'
+                    '    def SphereLight "L" {\n        string inputs:radius = "big"\n    }\n'
+                    '    def Sphere "S" {\n        string radius = "r"\n    }\n'
+                    '    def Sphere "Ok" {\n    }\n}\n')
+    desc = read_stage(path)
+    assert [s.path for c in desc.containers for s in c.spheres] == ['/World/Ok']
+    assert sorted(s.split(':')[0] for s in desc.skipped) == ['/World/L', '/World/S']
