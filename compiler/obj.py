@@ -36,10 +36,16 @@ class ObjMesh:
     uv_indices: Optional[np.ndarray] = None       # int32 (m, 3) per corner
     polygons: int = 0                     # faces in the file before triangulation
     warnings: list[tuple[int, str]] = field(default_factory=list)   # (OBJ line, message)
+    _bounds: Optional[tuple[np.ndarray, np.ndarray]] = field(default=None, repr=False, compare=False)
 
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
-        used = self.points[np.unique(self.triangles)] if len(self.triangles) else self.points
-        return used.min(axis=0), used.max(axis=0)
+        """Box around the vertices that faces use (computed once)."""
+        if self._bounds is None:
+            used = np.zeros(len(self.points), bool)
+            used[self.triangles.ravel()] = True
+            pts = self.points[used] if used.any() else self.points
+            self._bounds = (pts.min(axis=0), pts.max(axis=0))
+        return self._bounds
 
 
 _LINES = {key: re.compile(rb"^" + key + rb"[ \t]+([^\n]*)", re.M) for key in (b"v", b"vt", b"vn", b"f")}

@@ -87,12 +87,12 @@ def remove_unknown(root, diags: Diagnostics) -> None:
 
 
 def _prune(el, node: _Node, diags: Diagnostics) -> None:
-    at = diags.at(el)
-    for name in [a for a in el.attrib if a not in node.attributes]:
-        at.warning(f"unknown attribute '{name}' ignored")
+    unknown = [a for a in el.attrib if a not in node.attributes]
+    for name in unknown:
+        diags.at(el).warning(f"unknown attribute '{name}' ignored")
         del el.attrib[name]
-    if not node.has_text and el.text and el.text.strip():
-        at.warning(f"stray text {_short(el.text)} ignored")
+    if not node.has_text and el.text and not el.text.isspace():
+        diags.at(el).warning(f"stray text {_short(el.text)} ignored")
         el.text = None
     for child in list(el):
         if not isinstance(child.tag, str):          # comments and processing instructions
@@ -103,7 +103,7 @@ def _prune(el, node: _Node, diags: Diagnostics) -> None:
             diags.at(child).warning(f"unknown element ignored (not allowed inside <{el.tag}>)")
             el.remove(child)
             continue
-        if not node.has_text and child.tail and child.tail.strip():
+        if not node.has_text and child.tail and not child.tail.isspace():
             diags.warning(f"stray text {_short(child.tail)} ignored (an unterminated comment?)",
                           _tail_line(child), el.tag)
             child.tail = None

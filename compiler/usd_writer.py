@@ -380,27 +380,26 @@ class _Bulk:
         """The course transform as xformOps in document order, then the geometry's own ops."""
         order: list[str] = []
         samples = motion.samples
-        if samples:
-            kinds = [tuple(op.kind for op in s.ops) for s in samples]
-            if len(set(kinds)) == 1:
-                counts: dict[str, int] = {}
-                for k, kind in enumerate(kinds[0]):
-                    n = counts[kind] = counts.get(kind, -1) + 1
-                    name = f"xformOp:{kind}" + (f":t{n}" if n else "")
-                    values = [_op_value(s.ops[k]) for s in samples]
-                    attr = self._attr(spec, name, _OP_TYPES[kind], None if motion.is_animated else values[0])
-                    if motion.is_animated:
-                        for s, value in zip(samples, values):
-                            self.layer.SetTimeSample(attr.path, s.time, value)
-                    order.append(name)
-            else:                                # operations differ between samples: matrices
-                attr = self._attr(spec, "xformOp:transform", _T.Matrix4d, None)
-                for s in samples:
-                    self.layer.SetTimeSample(attr.path, s.time, _gf(s.matrix()))
-                order.append("xformOp:transform")
+        animated = motion.is_animated
+        if samples and len({tuple(op.kind for op in s.ops) for s in samples}) == 1:
+            counts: dict[str, int] = {}
+            for k, op in enumerate(samples[0].ops):
+                n = counts[op.kind] = counts.get(op.kind, -1) + 1
+                name = f"xformOp:{op.kind}:t{n}" if n else f"xformOp:{op.kind}"
+                attr = Sdf.AttributeSpec(spec, name, _OP_TYPES[op.kind])
+                if animated:
+                    for s in samples:
+                        self.layer.SetTimeSample(attr.path, s.time, _op_value(s.ops[k]))
+                else:
+                    attr.default = _op_value(op)
+                order.append(name)
+        elif samples:                            # operations differ between samples: matrices
+            attr = Sdf.AttributeSpec(spec, "xformOp:transform", _T.Matrix4d)
+            for s in samples:
+                self.layer.SetTimeSample(attr.path, s.time, _gf(s.matrix()))
+            order.append("xformOp:transform")
         for name, value in local:
-            kind = name.split(":")[1]
-            self._attr(spec, name, _OP_TYPES[kind], value)
+            Sdf.AttributeSpec(spec, name, _OP_TYPES[name.split(":")[1]]).default = value
             order.append(name)
         if order:
             self._attr(spec, "xformOpOrder", _T.TokenArray, Vt.TokenArray(order), uniform=True)
@@ -494,7 +493,7 @@ class _Bulk:
 
 
 def _op_value(op):
-    return float(op.value) if op.kind.startswith("rotate") else Gf.Vec3d(*op.value)
+    return Gf.Vec3d(*op.value) if op.kind in ("translate", "scale") else float(op.value)
 
 
 def _author_triangle(bulk: _Bulk, spec: Sdf.PrimSpec, t: Triangle) -> None:

@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 import re
 from pathlib import Path
-from typing import Callable, Optional
+from typing import Optional
 
 from lxml import etree
 
@@ -578,27 +578,29 @@ class _Reader:
                       attribute: Optional[str] = None) -> Optional[tuple]:
         """Exactly `count` finite decimals.  Text a C++ stream would still read greedily
         ("-5.5.0 0.0 -7.5" -> -5.5 .0 0.0, Q12) is read the same way, with a warning."""
-        where = f"attribute '{attribute}': " if attribute else ""
-        text = (text or "").strip()
-        noun = "number" if count == 1 else "numbers"
-        report: Callable[[str], None] = lambda m: self.diags.error(where + m, line, element)
+        tokens = (text or "").split()
         try:
-            values = tuple(float(t) for t in text.split())
+            values = tuple(map(float, tokens))
         except ValueError:
             values = None
+        if values is not None and len(values) == count and all(map(math.isfinite, values)):
+            return values                       # the common case, kept fast
+        where = f"attribute '{attribute}': " if attribute else ""
+        text = " ".join(tokens)
+        noun = "number" if count == 1 else "numbers"
         if values is None:
             values = _greedy(text, count)
             if values is None:
-                report(f"expected {count} {noun}, got {text!r}")
+                self.diags.error(f"{where}expected {count} {noun}, got {text!r}", line, element)
                 return None
             self.diags.warning(f"{where}malformed {noun} {text!r} read as "
                                f"{' '.join(f'{v:g}' for v in values)} (the course's C++ parser reads "
                                "greedily); please fix the file", line, element)
         elif len(values) != count:
-            report(f"expected {count} {noun}, got {len(values)}: {text!r}")
+            self.diags.error(f"{where}expected {count} {noun}, got {len(values)}: {text!r}", line, element)
             return None
-        if not all(math.isfinite(v) for v in values):
-            report(f"NaN and infinity are not allowed: {text!r}")
+        if not all(map(math.isfinite, values)):
+            self.diags.error(f"{where}NaN and infinity are not allowed: {text!r}", line, element)
             return None
         return values
 
