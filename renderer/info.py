@@ -1,19 +1,16 @@
 """`rtc info SCENE.usd`: what the renderer would see, without rendering.
 
 `describe` summarises a SceneDescription (prototypes and how often each is placed, unique vs
-instanced triangles, lights, camera, materials, textures, warnings, skipped prims); `info_cmd`
-is the click command wrapping `read_stage` + `describe`.
+instanced triangles, lights, camera, materials, textures, warnings, skipped prims); the `rtc info`
+command (rtc/cli.py) prints it for a USD file or a course XML file compiled in memory.
 """
 from __future__ import annotations
 
-import sys
 from collections import Counter
 
-import click
 import numpy as np
 
 from renderer.description import MODEL_NAMES, SceneDescription
-from renderer.errors import SceneError
 
 LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome')
 MODEL_LABELS = {v: k for k, v in MODEL_NAMES.items()}
@@ -64,17 +61,3 @@ def describe(desc: SceneDescription) -> str:
             lines.append(f'    ... {len(items) - MAX_LISTED} more')
     return '\n'.join(lines)
 
-
-@click.command('info')
-@click.argument('scene', type=click.Path(dir_okay=False))
-@click.option('--time', 'time', type=float, default=None, help='time code (default: startTimeCode)')
-@click.option('--camera', 'camera_path', default=None, help='camera prim path')
-def info_cmd(scene: str, time, camera_path) -> None:
-    """Summarise what the renderer reads from a USD SCENE."""
-    from renderer.stage_reader import read_stage
-    try:
-        desc = read_stage(scene, time=time, camera_path=camera_path)
-    except SceneError as exc:
-        click.echo(f'error: {exc}', err=True)
-        sys.exit(2)
-    click.echo(describe(desc))

@@ -33,7 +33,7 @@ def _fail(message: str, code: int = EXIT_ERROR):
     sys.exit(code)
 
 
-def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, quiet=False):
+def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, time=None, quiet=False):
     """A SceneDescription from a USD file, or from a course XML file compiled in memory."""
     from renderer.errors import SceneError
     from renderer.stage_reader import read_stage
@@ -55,7 +55,7 @@ def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, qui
                 click.echo(str(d), err=True)
         source = stage
     try:
-        desc = read_stage(source, camera_path=camera, width=width, height=height, spp=spp)
+        desc = read_stage(source, time=time, camera_path=camera, width=width, height=height, spp=spp)
     except SceneError as e:
         _fail(str(e))
     if not quiet:
@@ -183,10 +183,11 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
 @main.command('info')
 @click.argument('scene', type=click.Path(dir_okay=False))
 @click.option('--camera', help='USD path of the camera.')
-def info_cmd(scene, camera):
+@click.option('--time', 'time_code', type=float, help='Time code (default: the stage start time).')
+def info_cmd(scene, camera, time_code):
     """Print what the renderer sees in SCENE: prototypes, instances, triangles, lights, materials."""
     from renderer.info import describe
-    desc = load_scene(scene, camera=camera, quiet=True)
+    desc = load_scene(scene, camera=camera, time=time_code, quiet=True)
     click.echo(describe(desc))
 
 

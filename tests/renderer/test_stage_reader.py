@@ -17,7 +17,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
 from renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
 from renderer.errors import SceneError
-from renderer.info import describe, info_cmd
+from renderer.info import describe
 from renderer.stage_reader import read_stage, rotate_x
 from renderer.usd_geometry import GeometryError, convert_gprim, converter_for
 from renderer.usd_instancing import InstanceGraph
@@ -531,7 +531,8 @@ def test_info_describes_and_exits_2_on_error(tmp_path):
     assert 'placed 1x' in summary and 'distant 1' in summary
     bad = tmp_path / 'bad.usda'
     bad.write_text('#usda 1.0\ndef "A" {\n')
-    result = CliRunner().invoke(info_cmd, [str(bad)])
+    from rtc.cli import main
+    result = CliRunner().invoke(main, ['info', str(bad)])
     assert result.exit_code == 2 and 'bad.usda' in result.output
 
 
