@@ -127,6 +127,10 @@ class _Reader:
         settings, background, policy = read_render_settings(settings_prim, self.tc)
         if self.camera_path:
             settings.camera_path = self.camera_path
+        if self.width and not self.height and settings.width and settings.height:
+            # only a width was asked for: keep the settings' aspect ratio (--width 48 of a
+            # 640 x 480 stage is 48 x 36, not 48 x 480)
+            settings.height = max(1, round(self.width * settings.height / settings.width))
         settings.width = self.width or settings.width
         settings.height = self.height or settings.height
         settings.samples_per_pixel = self.spp or settings.samples_per_pixel
