@@ -1,0 +1,97 @@
+"""`rtc info` (issue #6): what the renderer sees, with exact numbers, on corpus files and on a
+compiled course scene.  The expected numbers were checked independently: placements and
+triangles by walking the composed stage with instance proxies (and `ComputeMaskAtTime` for the
+point instancer), the bunny by counting the OBJ's faces."""
+from __future__ import annotations
+
+import pytest
+from click.testing import CliRunner
+
+from rtc.cli import main
+
+from interop_helpers import REPO, USD_CORPUS
+
+TESTENV = 'openusd/pxr/usdImaging/usdImagingGL/testenv/'
+NO_CAMERA = 'no camera in the stage: using a default camera framing the scene bounds'
+NO_LIGHTS = 'no lights in the stage: added a default DistantLight headlight'
+
+
+def info(path) -> list[str]:
+    result = CliRunner().invoke(main, ['info', str(path)], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    return [line.strip() for line in result.output.splitlines()]
+
+
+def assert_lines(lines: list[str], *expected: str):
+    for e in expected:
+        assert any(line.startswith(e) for line in lines), f'{e!r} not in:\n' + '\n'.join(lines)
+
+
+CASES = {
+    # nested native instancing: 12 cube instances through two levels of prototypes
+    TESTENV + 'testUsdImagingGLInstancing/nestedInstancedCubes.usda': [
+        'up axis Z (description is Y-up), metersPerUnit 0.01',
+        'prototypes (containers): 1, placements: 12, motion samples: 1',
+        'triangles: 12 unique, 144 instanced; spheres: 0 unique, 0 instanced',
+        'lights: 2 (distant 1, dome 1)',
+        'materials: 1 (previewSurface 1), material sets: 1',
+        'warnings: 2', NO_CAMERA, NO_LIGHTS, 'skipped: 0'],
+    # point instancer with 5 instances, one deactivated by inactiveIds
+    TESTENV + 'testUsdImagingGLPointInstancer/pi_masking.usda': [
+        'prototypes (containers): 1, placements: 4,',
+        'triangles: 12 unique, 48 instanced',
+        'PI:/Instancer/Protos/Proto1: 1 meshes (12 triangles), 0 spheres, placed 4x'],
+    # a point instancer inside a native prototype; one of its prototypes does not exist
+    TESTENV + 'testUsdImagingGLInstancing/ni_pi.usda': [
+        'prototypes (containers): 1, placements: 50,',
+        'triangles: 0 unique, 0 instanced; spheres: 1 unique, 50 instanced',
+        '/__Prototype_1/Instancer: prototype /__Prototype_1/Instancer/Dumb/Dumber is missing or not defined'],
+    # one prototype, two instances with different material overrides
+    TESTENV + 'testUsdImagingGLInstancingWithMaterials/ni_2instances_shaded_overrides.usda': [
+        'prototypes (containers): 1, placements: 2,',
+        'triangles: 12 unique, 24 instanced',
+        'materials: 3 (previewSurface 3), material sets: 2'],
+    # seven containers (plain gprims + six point-instancer prototypes), a real camera
+    TESTENV + 'testUsdImagingGLVelocityMotion/scene.usda': [
+        'up axis Y (description is Y-up), metersPerUnit 0.01',
+        'prototypes (containers): 7, placements: 7,',
+        'triangles: 60 unique, 60 instanced',
+        'camera: /World/main_cam perspective, focal length 2.4,',
+        'materials: 2 (previewSurface 2), material sets: 3',
+        'warnings: 1', NO_LIGHTS],
+}
+
+
+@pytest.mark.parametrize('rel', list(CASES), ids=lambda r: r.rsplit('/', 1)[-1])
+def test_info_on_corpus_files(rel, usd_corpus):
+    assert_lines(info(USD_CORPUS / rel), *CASES[rel])
+
+
+def test_info_on_curves_lists_what_is_skipped(usd_corpus):
+    lines = info(USD_CORPUS / 'openusd/extras/usd/examples/usdGeomExamples/basisCurves.usda')
+    assert_lines(lines, 'prototypes (containers): 0, placements: 0,', 'skipped: 10',   # the file's ten BasisCurves
+                 '/Linear/Tubes/ConstantWidth: BasisCurves is not supported')
+
+
+def test_info_on_a_compiled_scene(tmp_path):
+    """bunnies.xml: a 69,451-triangle OBJ bunny placed 7 times (one prototype) and a box floor;
+    one area light, the course camera, five course shaders."""
+    obj = REPO / 'scenes' / 'objFiles' / 'bunny.obj'
+    faces = sum(1 for line in obj.read_text().splitlines() if line.startswith('f '))
+    assert faces == 69451
+    usd = tmp_path / 'bunnies.usda'
+    result = CliRunner().invoke(main, ['compile', str(REPO / 'scenes' / 'bunnies.xml'), '-o', str(usd)],
+                                catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert_lines(info(usd),
+                 'up axis Y (description is Y-up), metersPerUnit 1',
+                 'prototypes (containers): 2, placements: 8, motion samples: 1',
+                 f'triangles: {faces + 12} unique, {7 * faces + 12} instanced; spheres: 0 unique, 0 instanced',
+                 f'/: 1 meshes (12 triangles), 0 spheres, placed 1x',
+                 'lights: 1 (rect 1)',
+                 'camera: /World/Camera perspective, focal length 0.45, aperture 0.5 x 0.5, lens radius 0',
+                 'image 512 x 512',
+                 'materials: 5 (blinnPhong 1, blinnPhongMirrored 1, dielectric 1, glaze 2), material sets: 5',
+                 'warnings: 0', 'skipped: 0')
+    # the bunny prototype is the other container, placed seven times
+    assert any(line.endswith(f'1 meshes ({faces} triangles), 0 spheres, placed 7x') for line in info(usd))
