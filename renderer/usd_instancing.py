@@ -49,6 +49,7 @@ PI = UsdGeom.PointInstancer
 PI_PROTOTYPE_PREDICATE = (Usd.PrimIsActive & Usd.PrimHasDefiningSpecifier & ~Usd.PrimIsAbstract
                           & Usd.PrimIsLoaded)
 MAX_DEPTH = 64
+MAX_PLACEMENTS = 10_000_000     # flattened instances; a few KB of nested instancing can ask for 10^9
 
 
 def _kind(prim: Usd.Prim, cache: dict) -> str:
@@ -351,9 +352,29 @@ class InstanceGraph:
     def flatten(self, root_matrix: np.ndarray) -> dict[int, Placements]:
         """Expand the reference graph from the root, placed at `root_matrix` (K, 4, 4).
         Returns placements per node index (nodes never placed are absent)."""
+        total = self._count(0, 1, 0)
+        if total > MAX_PLACEMENTS:
+            raise SceneError(f'{self.stage.GetRootLayer().identifier}: nested instancing expands to more than '
+                             f'{MAX_PLACEMENTS:,} placements; refusing to flatten it')
         out: dict[int, Placements] = {}
         self._visit(0, root_matrix[None], np.zeros(1, np.int8), np.zeros(1, np.int64), ['/'], out, 0)
         return out
+
+    def _count(self, n: int, m: int, depth: int) -> int:
+        """Placements `_visit` would create below (and including) `m` placements of node `n`,
+        without allocating them; stops early past MAX_PLACEMENTS (deep cycles are left to _visit)."""
+        if depth > MAX_DEPTH:
+            return m
+        node = self.nodes[n]
+        children = [r.child for r in node.refs] + [int(c) for child, _ in node.pi_rows for c in child]
+        total = m
+        if children:
+            ids, k = np.unique(np.asarray(children, np.int64), return_counts=True)
+            for c, kc in zip(ids.tolist(), k.tolist()):
+                total += self._count(c, m * kc, depth + 1)
+                if total > MAX_PLACEMENTS:
+                    break
+        return total
 
     def _visit(self, n: int, world, purpose, maps, labels, out, depth) -> None:
         if depth > MAX_DEPTH:
