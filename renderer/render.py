@@ -25,6 +25,7 @@ from .samplers import SAMPLER_NAMES
 
 MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
 MAX_SPP = 1 << 20
+MAX_THREADS = 1024            # Embree starts every thread it is given (threads=100000 took 27 s)
 
 
 class RenderError(Exception):
@@ -71,6 +72,8 @@ class RenderOptions:
             raise RenderError(f'max depth {self.max_depth} is out of range (0..64)')
         if not 0 <= self.seed < 2 ** 32:
             raise RenderError(f'seed {self.seed} is out of range (0..2^32-1)')
+        if self.threads is not None and not 1 <= self.threads <= MAX_THREADS:
+            raise RenderError(f'threads {self.threads} is out of range (1..{MAX_THREADS})')
 
 
 @dataclass

@@ -118,6 +118,12 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
     ckpt_path = out.with_name(out.name + '.ckpt.npz')
     opts = RenderOptions(width=width, height=height, spp=spp, sampler=sampler, filter=filter_, seed=seed,
                          max_depth=max_depth, threads=threads)
+    try:        # absurd command-line values fail before the scene is read (sizes from the file: below)
+        RenderOptions(**{**opts.__dict__, 'width': width or 1, 'height': height or 1, 'spp': spp or 1}).validate()
+    except RenderError as e:
+        _fail(str(e))
+    if checkpoint is not None and not 0 < checkpoint < float('inf'):
+        _fail(f'--checkpoint must be a positive number of seconds, got {checkpoint}')
     desc = load_scene(scene, camera=camera, width=width, height=height, spp=spp, quiet=quiet)
     try:
         resolved = opts.resolved(desc.settings)
