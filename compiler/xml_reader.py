@@ -84,6 +84,28 @@ def _parse(path: Path, diags: Diagnostics):
     return root
 
 
+MAX_TEXTURE_PIXELS = 1 << 28                # 16k x 16k, the renderer's limit too
+
+
+def _unreadable_image(path: Path) -> Optional[str]:
+    """Why a texture image cannot be used (corrupt, truncated, absurd size), or None.  Decodes
+    it once, so that a bad file fails at compile time rather than rendering untextured."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(str(path))
+    if inp is None:
+        return oiio.geterror().strip() or "not a readable image"
+    try:
+        spec = inp.spec()
+        if spec.width * spec.height * spec.depth > MAX_TEXTURE_PIXELS:
+            return f"{spec.width} x {spec.height} pixels is more than the limit of {MAX_TEXTURE_PIXELS}"
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.UINT8)
+        if pixels is None:
+            return inp.geterror().strip() or "cannot decode the pixels"
+    finally:
+        inp.close()
+    return None
+
+
 class _Reader:
     def __init__(self, path: Path, diags: Diagnostics):
         self.path = path
@@ -258,6 +280,10 @@ class _Reader:
             self.diags.at(el).error("a texture needs a <sourcefile>")
             return None
         path = self._existing_file(c["sourcefile"], "texture image")
+        problem = _unreadable_image(path) if path else None
+        if problem:
+            self.diags.at(c["sourcefile"]).error(f"texture image {path}: {problem}")
+            return None
         return Texture(el.get("name"), path, el.sourceline) if path else None
 
     def _shader(self, el, name: str) -> Optional[Shader]:
