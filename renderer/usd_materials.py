@@ -206,6 +206,9 @@ class MaterialTable:
         return self._pixels[key]
 
 
+MAX_TEXTURE_PIXELS = 1 << 28      # 16k x 16k; decoded as float32 (a corrupt header can claim 10^10)
+
+
 def read_image(resolved: str, colour_space: str = 'auto') -> np.ndarray:
     """Decode an image to float32 (h, w, c) linear values.
 
@@ -227,6 +230,8 @@ def read_image(resolved: str, colour_space: str = 'auto') -> np.ndarray:
         raise OSError(oiio.geterror() or 'unreadable image')
     try:
         spec = inp.spec()
+        if spec.width * spec.height * spec.depth > MAX_TEXTURE_PIXELS:     # header says: refuse before allocating
+            raise OSError(f'{spec.width} x {spec.height} pixels is more than the limit of {MAX_TEXTURE_PIXELS}')
         pixels = inp.read_image(0, 0, 0, spec.nchannels, 'float')
     finally:
         inp.close()
