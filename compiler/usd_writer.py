@@ -20,7 +20,7 @@ from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from .obj import ObjMesh
 from .scene import (Box, Camera, Cylinder, Geometry, Light, MeshFile, Motion, Placement, Prototype,
-                    Scene, Shader, Shape, Sphere, Transform, Triangle)
+                    Scene, Shader, Shape, Sphere, Triangle)
 
 _T = Sdf.ValueTypeNames
 _OP_TYPES = {"translate": _T.Double3, "scale": _T.Double3, "rotateX": _T.Double, "rotateY": _T.Double,
