@@ -46,7 +46,7 @@ SceneData = namedtuple('SceneData', [
     'mat_i', 'mat_f',
     'tex_i', 'tex_f', 'tex_data',
     'li_type', 'li_f', 'li_tex',
-    'background',
+    'background', 'offset_scale',
 ])
 
 
@@ -81,6 +81,33 @@ def _similarity_scale(m3: np.ndarray) -> float | None:
     if s2 <= 0 or not np.allclose(g, s2 * np.eye(3), rtol=1e-9, atol=1e-12 * max(s2, 1e-300)):
         return None
     return float(np.sqrt(s2))
+
+
+def _container_radius(c: D.Container, ctr: np.ndarray) -> float:
+    """Radius of a ball about `ctr` that holds the container's geometry (0 if empty)."""
+    r = 0.0
+    for m in c.meshes:
+        if len(m.points):
+            r = max(r, float(np.max(np.linalg.norm(np.asarray(m.points, np.float64) - ctr, axis=1))))
+    for s in c.spheres:
+        r = max(r, float(np.linalg.norm(s.matrix[:3, 3] - ctr) + s.radius * np.linalg.norm(s.matrix[:3, :3], 2)))
+    return r if np.isfinite(r) else 0.0
+
+
+def offset_scale(xf: np.ndarray, in_proto: np.ndarray, radii: np.ndarray) -> float:
+    """Scale of the near-origin fallback of `vecmath.offset_origin` (Ray Tracing Gems' fixed 2^-16
+    offset within 2^-5 of the origin, which assumes objects of size ~1 or more): the smallest world
+    radius of a placed object (container radius x Frobenius norm of its placement's linear part),
+    rounded down to a power of two (exact in float), at most 1 so that ordinary and large scenes
+    keep the published constants.  Makes the offset invariant under a global change of units."""
+    if not len(in_proto):
+        return 1.0
+    lin = np.sqrt(np.max(np.sum(xf[:, :, :, :3] ** 2, axis=(2, 3)), axis=1))      # (N,) max over steps
+    r = radii[in_proto] * lin
+    r = r[(r > 0) & np.isfinite(r)]
+    if not len(r):
+        return 1.0
+    return float(min(1.0, max(2.0 ** -100, 2.0 ** np.floor(np.log2(r.min())))))
 
 
 def _container_center(c: D.Container) -> np.ndarray:
@@ -226,9 +253,11 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
     protos, centers, pr_gp_start, pr_geom = [], [], [], []
     ellipsoids = []                                   # (container index, sphere index)
 
+    radii = []
     for ci, c in enumerate(containers):
         ctr = _container_center(c)
         centers.append(ctr)
+        radii.append(_container_radius(c, ctr))
         pr_gp_start.append(len(tables.kind))
         e_meshes, e_spheres, geom_to_gp = [], [], []
         for m in c.meshes:
@@ -258,6 +287,7 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
     if ellipsoids:                                    # one shared unit-sphere container
         unit = len(protos)
         centers.append(np.zeros(3))
+        radii.append(1.0)
         pr_gp_start.append(len(tables.kind))
         pr_geom.append([len(tables.kind)])
         tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
@@ -348,6 +378,7 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
         mat_i=mat_i, mat_f=mat_f, tex_i=tex_i, tex_f=tex_f, tex_data=tex_data,
         li_type=li_type, li_f=li_f, li_tex=li_tex,
         background=np.array(desc.background, np.float64),
+        offset_scale=np.array([offset_scale(xf, in_proto, np.array(radii, np.float64))], np.float64),
     )
     return BuiltScene(device=dev, prototypes=protos, top=top, data=data, origin=origin, motion_steps=K,
                       has_textures=bool(desc.textures), has_dome=bool(np.any(li_type == D.DOME)),

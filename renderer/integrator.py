@@ -51,6 +51,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
     """Radiance arriving at the camera along the ray (o, d) at shutter time `time`."""
     n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
     per = _dims_per_bounce(n_lights)
+    osc = S.offset_scale[0]            # scale of the near-origin ray offset (build.offset_scale)
     Lr = 0.0
     Lg = 0.0
     Lb = 0.0
@@ -99,7 +100,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             opacity = float(mf[mat, MF_OPACITY])
             if opacity < 1.0:
                 if sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= opacity:
-                    ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]))
+                    ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
                     tnear = 0.0
                     tfar = np.inf
                     continue
@@ -108,7 +109,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             Lb += tb * mf[mat, MF_EMIT + 2]
         # ---- direct light, one sample per light (soft shadows from area lights)
         if has_diffuse_lobe(model):
-            po = offset_origin(p, ng)
+            po = offset_origin(p, ng, osc)
             for k in range(n_lights):
                 u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
                 wi, dist, E = sample_light(S, k, p, ns, u1, u2)
@@ -139,10 +140,10 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             uc = sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1)
             if uc < F:
                 nd = reflect(dvec, ns)
-                ox, oy, oz = offset_origin(p, ng)
+                ox, oy, oz = offset_origin(p, ng, osc)
             else:
                 nd = refract(dvec, ns, eta, cos_i, cos_t)
-                ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]))
+                ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
                 if front:                        # entering the medium
                     ar = float(mf[mat, MF_ATTEN])
                     ag = float(mf[mat, MF_ATTEN + 1])
@@ -174,7 +175,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             tr *= wr / q
             tg *= wg / q
             tb *= wb / q
-            ox, oy, oz = offset_origin(p, ng)
+            ox, oy, oz = offset_origin(p, ng, osc)
             dx, dy, dz = nd
         else:
             w = mirror_weight(S, mat, model, ks)
@@ -194,7 +195,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             tr *= w[0]
             tg *= w[1]
             tb *= w[2]
-            ox, oy, oz = offset_origin(p, ng)
+            ox, oy, oz = offset_origin(p, ng, osc)
             dx, dy, dz = nd
         tnear = 0.0
         tfar = np.inf

@@ -4,7 +4,10 @@ robust ray-origin offset.
 Tuples keep everything in registers; numba inlines these.  The offset follows Waechter & Binder,
 "A Fast and Robust Method for Avoiding Self-Intersection" (Ray Tracing Gems, ch. 6): move the float32
 origin by a fixed number of ULPs along the geometric normal, which is scale-invariant; near the origin
-(|p| < 1/32), where ULPs vanish, by a fixed float distance.
+(|p| < scale/32), where ULPs vanish, by a fixed float distance scale/65536.  Ray Tracing Gems uses
+scale = 1, which assumes objects of size ~1 or more: a scene scaled by 1e-4 then loses its contact
+shadows (the fixed offset is 0.15 of the scene's own units).  `build.offset_scale` shrinks `scale`
+with the smallest placed object, so the offset is invariant under a global change of units.
 """
 import math
 
@@ -174,10 +177,10 @@ OFFSET_ORIGIN = 1.0 / 32.0
 
 
 @nb.njit(**_JIT)
-def _offset1(p, n):
+def _offset1(p, n, scale):
     pf = np.float32(p)
-    if abs(pf) < OFFSET_ORIGIN:
-        return np.float32(pf + np.float32(OFFSET_FLOAT_SCALE * n))
+    if abs(pf) < OFFSET_ORIGIN * scale:
+        return np.float32(pf + np.float32(OFFSET_FLOAT_SCALE * scale * n))
     of = np.int32(OFFSET_INT_SCALE * n)
     bits = _f32_bits(pf)
     if pf < 0:
@@ -186,9 +189,10 @@ def _offset1(p, n):
 
 
 @nb.njit(**_JIT)
-def offset_origin(p, n):
-    """float32-representable origin just off the surface at p on the side n points to (n unit)."""
-    return (_offset1(p[0], n[0]), _offset1(p[1], n[1]), _offset1(p[2], n[2]))
+def offset_origin(p, n, scale):
+    """float32-representable origin just off the surface at p on the side n points to (n unit).
+    `scale` (a power of two <= 1, `SceneData.offset_scale[0]`) scales the near-origin fallback."""
+    return (_offset1(p[0], n[0], scale), _offset1(p[1], n[1], scale), _offset1(p[2], n[2], scale))
 
 
 @nb.njit(**_JIT)
