@@ -5,7 +5,7 @@ Both are computed batched over all shapes and placements (composition through
 """
 from __future__ import annotations
 
-from typing import Optional
+from typing import NamedTuple, Optional
 
 import numpy as np
 
@@ -52,8 +52,15 @@ def local_box(geometry: Geometry, meshes: dict) -> tuple[np.ndarray, np.ndarray]
     return mesh.bounds()
 
 
-def world_bounds(scene: Scene, meshes: dict) -> Optional[tuple[np.ndarray, np.ndarray]]:
-    """World-space box around everything rendered (first motion sample), or None if empty."""
+class Extent(NamedTuple):
+    """World-space extent of everything rendered (first motion sample)."""
+    lo: np.ndarray            # (3,) box corners
+    hi: np.ndarray
+    centers: np.ndarray       # (n, 3) centre of each rendered shape's / placement's world box
+
+
+def world_bounds(scene: Scene, meshes: dict) -> Optional[Extent]:
+    """The scene's Extent, or None if nothing is rendered."""
     groups: dict[int, tuple[np.ndarray, list]] = {}
     for shape in scene.shapes:
         groups.setdefault(id(shape), (_corners(shape.geometry, meshes), []))[1].append(
@@ -67,11 +74,14 @@ def world_bounds(scene: Scene, meshes: dict) -> Optional[tuple[np.ndarray, np.nd
             groups[id(proto)] = (corners, [])
         groups[id(proto)][1].append(placement.motion.samples[0].ops if placement.motion.samples else ())
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
+    centers = []
     for corners, op_lists in groups.values():
         world = np.einsum("nij,kj->nki", compose_many(op_lists), corners)[..., :3]
-        lo = np.minimum(lo, world.min(axis=(0, 1)))
-        hi = np.maximum(hi, world.max(axis=(0, 1)))
-    return (lo, hi) if np.all(lo <= hi) else None
+        wlo, whi = world.min(axis=1), world.max(axis=1)
+        lo = np.minimum(lo, wlo.min(axis=0))
+        hi = np.maximum(hi, whi.max(axis=0))
+        centers.append((wlo + whi) / 2)
+    return Extent(lo, hi, np.concatenate(centers)) if np.all(lo <= hi) else None
 
 
 def _corners(geometry: Geometry, meshes: dict) -> np.ndarray:

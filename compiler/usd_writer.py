@@ -67,10 +67,12 @@ class WrittenScene:
 
 
 def reference_distance(light: Light, bounds) -> float:
-    """Distance from the light to the centre of the scene's bounding box (1 if degenerate)."""
-    if bounds is None:
+    """Median distance from the light to the rendered shapes (the centres of their world boxes);
+    1 if degenerate.  The median, not the distance to the scene's centre: a light often hangs near
+    the middle of a room-sized box, and is lighting the objects around it, not the box's centre."""
+    if bounds is None or not len(bounds.centers):
         return 1.0
-    d = float(np.linalg.norm((bounds[0] + bounds[1]) / 2 - np.asarray(light.position)))
+    d = float(np.median(np.linalg.norm(bounds.centers - np.asarray(light.position), axis=1)))
     return d if d > 0.0 and math.isfinite(d) else 1.0
 
 
