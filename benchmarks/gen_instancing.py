@@ -2,12 +2,17 @@
 
     python benchmarks/gen_instancing.py native 100000 /tmp/native_1e5.usdc
     python benchmarks/gen_instancing.py pi 1000000 /tmp/pi_1e6.usdc
+    python benchmarks/gen_instancing.py pi-mesh 1000000 /tmp/pim_1e6.usdc [--tris 100000]
 
 ``native``: N instanceable Xforms (``MakeMatrixXform`` placements) referencing one of two
 prototypes in an ``over "Prototypes"`` library (the layout rtc's compiler writes); every tenth
 instance overrides its material with ``strongerThanDescendants`` so the reader has to resolve
 bindings per instance.  ``pi``: one PointInstancer with N instances of three prototypes
-(positions, ``orientationsf``, scales, an ``invisibleIds`` mask on 1% of them).
+(positions, ``orientationsf``, scales, an ``invisibleIds`` mask on 1% of them).  ``pi-mesh``: the
+render-at-scale case of benchmarks/bench_render.py - one PointInstancer with N instances of a single
+torus mesh of ``--tris`` triangles (default 100 000) scattered over a 200 x 200 ground square, a
+distant light and a ground plane; instances shrink as 1/sqrt(N) so the image covers the same
+fraction of the square at every N (render time then measures the BVH, not the amount of surface).
 
 The native instances are authored through the Sdf layer API, with no stage open on the layer:
 going through ``UsdGeom`` per prim would make the generator, not the reader, the slow part.
@@ -102,12 +107,80 @@ def write_point_instancer(n: int, path: str) -> None:
     stage.GetRootLayer().Save()
 
 
+def torus_mesh(stage: Usd.Stage, path: str, tris: int) -> UsdGeom.Mesh:
+    """A torus (radii 1, 0.35, lying in the xz plane, resting on y = 0) of about `tris` triangles
+    (quads split in two)."""
+    nu = max(3, int(round(np.sqrt(tris / 2 * 2.5))))
+    nv = max(3, int(round(tris / 2 / nu)))
+    u = 2 * np.pi * np.arange(nu) / nu
+    v = 2 * np.pi * np.arange(nv) / nv
+    uu, vv = np.meshgrid(u, v, indexing='ij')
+    rr = 1.0 + 0.35 * np.cos(vv)
+    pts = np.stack([rr * np.cos(uu), 0.35 + 0.35 * np.sin(vv), rr * np.sin(uu)], -1).reshape(-1, 3)
+    i, j = np.meshgrid(np.arange(nu), np.arange(nv), indexing='ij')
+    a = i * nv + j
+    b = ((i + 1) % nu) * nv + j
+    c = ((i + 1) % nu) * nv + (j + 1) % nv
+    d = i * nv + (j + 1) % nv
+    quads = np.stack([a, d, c, b], -1).reshape(-1, 4)
+    tri = np.concatenate([quads[:, [0, 1, 2]], quads[:, [0, 2, 3]]], 1).reshape(-1, 3)
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    mesh.CreatePointsAttr(Vt.Vec3fArray.FromNumpy(pts.astype(np.float32)))
+    mesh.CreateFaceVertexCountsAttr(Vt.IntArray.FromNumpy(np.full(len(tri), 3, np.int32)))
+    mesh.CreateFaceVertexIndicesAttr(Vt.IntArray.FromNumpy(tri.astype(np.int32).ravel()))
+    mesh.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    return mesh
+
+
+def write_point_instancer_mesh(n: int, path: str, tris: int = 100_000) -> None:
+    from pxr import UsdLux
+    stage = Usd.Stage.CreateNew(path)
+    _common(stage)
+    light = UsdLux.DistantLight.Define(stage, '/World/Sun')
+    light.CreateIntensityAttr(3.0)
+    light.CreateAngleAttr(2.0)
+    UsdGeom.Xformable(light).AddRotateXYZOp().Set(Gf.Vec3f(-50, 30, 0))
+    ground = UsdGeom.Mesh.Define(stage, '/World/Ground')
+    ground.CreatePointsAttr([(-150, 0, -150), (150, 0, -150), (150, 0, 150), (-150, 0, 150)])
+    ground.CreateFaceVertexCountsAttr([4])
+    ground.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    ground.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    UsdShade.MaterialBindingAPI.Apply(ground.GetPrim()).Bind(
+        UsdShade.Material(stage.GetPrimAtPath('/World/Looks/Grey')))
+    pi = UsdGeom.PointInstancer.Define(stage, '/World/Scatter')
+    torus = torus_mesh(stage, '/World/Scatter/Prototypes/Torus', tris)
+    UsdShade.MaterialBindingAPI.Apply(torus.GetPrim()).Bind(
+        UsdShade.Material(stage.GetPrimAtPath('/World/Looks/Red')))
+    pi.CreatePrototypesRel().SetTargets([torus.GetPath()])
+    rng = np.random.default_rng(3)
+    pos = np.zeros((n, 3), np.float32)
+    pos[:, [0, 2]] = rng.uniform(-100, 100, (n, 2))
+    yaw = rng.uniform(0, np.pi, n)
+    q = np.zeros((n, 4), np.float32)                 # (real, i, j, k): rotation about +y
+    q[:, 0] = np.cos(yaw)
+    q[:, 2] = np.sin(yaw)
+    s = np.float32(0.35 * 200.0 / np.sqrt(n))
+    pi.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(np.zeros(n, np.int32)))
+    pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(pos))
+    pi.CreateOrientationsfAttr(Vt.QuatfArray.FromNumpy(q))
+    pi.CreateScalesAttr(Vt.Vec3fArray.FromNumpy(np.full((n, 3), s, np.float32)))
+    stage.GetRootLayer().Save()
+
+
 def main(argv: list[str]) -> int:
-    if len(argv) != 4 or argv[1] not in ('native', 'pi'):
+    tris = 100_000
+    if '--tris' in argv:
+        k = argv.index('--tris')
+        tris = int(argv[k + 1])
+        argv = argv[:k] + argv[k + 2:]
+    if len(argv) != 4 or argv[1] not in ('native', 'pi', 'pi-mesh'):
         print(__doc__)
         return 2
     kind, n, path = argv[1], int(argv[2]), argv[3]
-    (write_native if kind == 'native' else write_point_instancer)(n, path)
+    if kind == 'pi-mesh':
+        write_point_instancer_mesh(n, path, tris)
+    else:
+        (write_native if kind == 'native' else write_point_instancer)(n, path)
     print(f'wrote {path}: {n} {kind} instances')
     return 0
 
