@@ -15,6 +15,11 @@ paths with rtcIntersect1 / rtcOccluded1 on the two-level Embree scene.  Tiles ar
 scattered order so that both threads get a mix of cheap and expensive regions.  Every random
 number is a pure function of (seed, pixel, sample index, dimension), so the image is bit-identical
 for a given seed whatever the thread count, and passes of samples add up exactly to one render.
+
+Ray recording (for benchmarks/bench_render.py, which replays the renderer's own rays on bare Embree):
+`render_pass(..., rec)` with `rec = new_ray_record(...)` stores every traced ray; with `rec=None`
+(the default) numba compiles a separate specialisation in which the recording branches are pruned
+at compile time, so rendering pays nothing for the feature.
 """
 import math
 
@@ -32,11 +37,14 @@ from .samplers import DIM_BOUNCE0, DIM_LENS, DIM_PIXEL, DIM_TIME, sample_1d, sam
 from .shapes import surface
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, TFAR, U, V, intersect1, new_ray_buffer,
                     occluded1)
-from .vecmath import dot, normalize, offset_origin, onb, reflect
+from .vecmath import SHADING_JIT, dot, normalize, offset_origin, onb, reflect
 
 # counters (per tile): rays by kind, and samples dropped as non-finite
 RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES = 0, 1, 2, 3
 N_COUNTERS = 4
+# ray record fields (float32 columns of rec[0])
+R_OX, R_OY, R_OZ, R_DX, R_DY, R_DZ, R_TNEAR, R_TFAR, R_TIME = range(9)
+R_FIELDS = 9
 TILE = 8
 SHADOW_EPS = 1e-5
 
@@ -46,9 +54,38 @@ def _dims_per_bounce(n_lights):
     return n_lights + 2
 
 
-@nb.njit(cache=True, nogil=True)
-def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts):
-    """Radiance arriving at the camera along the ray (o, d) at shutter time `time`."""
+def new_ray_record(width, height, rays_per_tile):
+    """Arrays for recording up to `rays_per_tile` rays of every 8x8 tile: (rays float32
+    (n_tiles, cap, R_FIELDS), kind int8 (n_tiles, cap) = RAYS_CAMERA/SHADOW/SECONDARY,
+    count int64 (n_tiles,) = rays traced, including those beyond the capacity)."""
+    ntiles = ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE)
+    return (np.zeros((ntiles, rays_per_tile, R_FIELDS), np.float32),
+            np.full((ntiles, rays_per_tile), -1, np.int8), np.zeros(ntiles, np.int64))
+
+
+@nb.njit(inline='always')
+def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
+    n = rec[2][tile]
+    if n < rec[0].shape[1]:
+        r = rec[0]
+        r[tile, n, R_OX] = ox
+        r[tile, n, R_OY] = oy
+        r[tile, n, R_OZ] = oz
+        r[tile, n, R_DX] = dx
+        r[tile, n, R_DY] = dy
+        r[tile, n, R_DZ] = dz
+        r[tile, n, R_TNEAR] = tnear
+        r[tile, n, R_TFAR] = tfar
+        r[tile, n, R_TIME] = time
+        rec[1][tile, n] = kind
+    rec[2][tile] = n + 1
+
+
+@nb.njit(**SHADING_JIT)
+def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts,
+               rec, tile):
+    """Radiance arriving at the camera along the ray (o, d) at shutter time `time`.
+    `rec`: None, or a ray record (`new_ray_record`) to which the rays of tile `tile` are appended."""
     n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
     per = _dims_per_bounce(n_lights)
     osc = S.offset_scale[0]            # scale of the near-origin ray offset (build.offset_scale)
@@ -67,8 +104,11 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
     ox, oy, oz = o
     dx, dy, dz = d
     for depth in range(max_depth + 1):
+        kind = RAYS_CAMERA if depth == 0 else RAYS_SECONDARY
+        if rec is not None:
+            _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
         hit = intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
-        counts[RAYS_CAMERA if depth == 0 else RAYS_SECONDARY] += 1
+        counts[kind] += 1
         dvec = (float(dx), float(dy), float(dz))
         if not hit:
             e = escaped_radiance(S, dvec)
@@ -123,6 +163,8 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
                 if model != D.COOL_TO_WARM:      # Gooch tone shading is unshadowed
                     counts[RAYS_SHADOW] += 1
                     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
+                    if rec is not None:
+                        _record(rec, tile, RAYS_SHADOW, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time)
                     if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
                         continue
                 Lr += tr * c[0]
@@ -206,9 +248,10 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
 
 @nb.njit(parallel=True, cache=True, nogil=True)
 def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, max_depth,
-                use_lens, use_time, accum, counters):
+                use_lens, use_time, accum, counters, rec=None):
     """Add samples [s0, s1) of every pixel to `accum` (height, width, 3) float64.
-    counters: int64 (n_tiles, N_COUNTERS), one row per tile (no shared writes)."""
+    counters: int64 (n_tiles, N_COUNTERS), one row per tile (no shared writes).
+    rec: None, or a ray record (`new_ray_record`) that receives every ray traced."""
     ntx = (width + TILE - 1) // TILE
     nty = (height + TILE - 1) // TILE
     ntiles = ntx * nty
@@ -236,7 +279,7 @@ def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, 
                         time = sample_1d(sampler, seed, pixel, s, spp, DIM_TIME)
                     o, d = generate_ray(cam, (x + 0.5 + fdx) / width, (y + 0.5 + fdy) / height, lu, lv, time)
                     r, g, bl = trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, s, spp,
-                                          max_depth, f, u, m, m32, counts)
+                                          max_depth, f, u, m, m32, counts, rec, tile)
                     if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
                         accum[y, x, 0] += r
                         accum[y, x, 1] += g

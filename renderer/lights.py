@@ -18,7 +18,7 @@ import numba as nb
 from . import description as D
 from .build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
-from .vecmath import dot, normalize, onb, sub, to_world
+from .vecmath import SHADING_JIT, dot, normalize, onb, sub, to_world
 
 _JIT = dict(cache=True, nogil=True, inline='always')
 INF = math.inf
@@ -29,7 +29,7 @@ def _col(li_f, k, j):
     return (li_f[k, LF_M + j], li_f[k, LF_M + 4 + j], li_f[k, LF_M + 8 + j])
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**SHADING_JIT)
 def sample_light(S, k, p, n, u1, u2):
     """-> (wi, dist, E_perp rgb).  E_perp = (0,0,0) when the sample cannot contribute (behind the
     light, inside a sphere light, ...).  n is the shading normal facing the viewer; only the dome
@@ -115,7 +115,7 @@ def sample_light(S, k, p, n, u1, u2):
     return (0.0, 0.0, 1.0), 0.0, zero
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**SHADING_JIT)
 def dome_radiance(S, k, wd):
     """Radiance of dome light k seen along world direction wd."""
     lf = S.li_f
@@ -131,7 +131,7 @@ def dome_radiance(S, k, wd):
     return (L[0] * c[0], L[1] * c[1], L[2] * c[2])
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**SHADING_JIT)
 def escaped_radiance(S, wd):
     """Radiance of a ray that leaves the scene: the dome lights if any, else the background colour."""
     r = 0.0

@@ -24,13 +24,13 @@ from . import description as D
 from .build import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
                     MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
 from .textures import sample_texture
-from .vecmath import dot, normalize
+from .vecmath import SHADING_JIT, dot, normalize
 
 _JIT = dict(cache=True, nogil=True)
 GOOCH_BLUE, GOOCH_YELLOW, GOOCH_ALPHA, GOOCH_BETA = 0.4, 0.4, 0.2, 0.6
 
 
-@nb.njit(**_JIT)
+@nb.njit(**SHADING_JIT)
 def colors(S, mat, st):
     """(kd, ks) with textures applied."""
     mf = S.mat_f
@@ -60,7 +60,7 @@ def _schlick(f0, f90, c):
     return f0 + (f90 - f0) * x5
 
 
-@nb.njit(**_JIT)
+@nb.njit(**SHADING_JIT)
 def preview_params(S, mat, kd, ks):
     """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface."""
     mf = S.mat_f
@@ -93,7 +93,7 @@ def smith_g(nl, nv, alpha):
     return (nl / (nl * (1.0 - k) + k)) * (nv / (nv * (1.0 - k) + k))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**SHADING_JIT)
 def direct(S, mat, kd, ks, n, wo, wi, E):
     """Reflected radiance towards wo from one light sample arriving along wi with E_perp = E.
     n is the shading normal on the viewer's side."""
@@ -120,18 +120,21 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
         nh = max(dot(n, h), 0.0)
         vh = max(dot(wo, h), 0.0)
         dg = ggx_d(nh, alpha) * smith_g(cos_i, nv, alpha) / (4.0 * cos_i * nv)
-        out = [0.0, 0.0, 0.0]
-        for c in range(3):
-            F = _schlick(f0[c], f90[c], vh)
-            out[c] = (diff[c] / math.pi * (1.0 - F) + dg * F) * E[c] * cos_i
+        F0 = _schlick(f0[0], f90[0], vh)
+        F1 = _schlick(f0[1], f90[1], vh)
+        F2 = _schlick(f0[2], f90[2], vh)
+        r = (diff[0] / math.pi * (1.0 - F0) + dg * F0) * E[0] * cos_i
+        g = (diff[1] / math.pi * (1.0 - F1) + dg * F1) * E[1] * cos_i
+        b = (diff[2] / math.pi * (1.0 - F2) + dg * F2) * E[2] * cos_i
         cc = float(mf[mat, MF_CLEARCOAT])
         if cc > 0.0:
             ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001) ** 2
             Fc = _schlick(0.04, 1.0, vh)
             spec = cc * Fc * ggx_d(nh, ca) * smith_g(cos_i, nv, ca) / (4.0 * cos_i * nv)
-            for c in range(3):
-                out[c] += spec * E[c] * cos_i
-        return (out[0], out[1], out[2])
+            r += spec * E[0] * cos_i
+            g += spec * E[1] * cos_i
+            b += spec * E[2] * cos_i
+        return (r, g, b)
     m = 0.0
     if model == D.GLAZE or model == D.BLINN_PHONG_MIRRORED:
         m = float(mf[mat, MF_MIRROR])
@@ -170,7 +173,7 @@ def refract(d, n, eta, cos_i, cos_t):
                       k * d[2] + (k * cos_i - cos_t) * n[2]))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**SHADING_JIT)
 def mirror_weight(S, mat, model, ks):
     """Colour weight of the specular continuation of the course models (0 = none)."""
     if model == D.MIRROR:

@@ -132,9 +132,11 @@ class Renderer:
         self.close()
 
     def render(self, options: RenderOptions, *, film: Film | None = None, should_stop=lambda: False,
-               on_pass=None) -> RenderResult:
+               on_pass=None, ray_record=None) -> RenderResult:
         """Render until `options.spp` samples per pixel (continuing `film` if given) or until
-        `should_stop()` is true between passes.  `on_pass(result)` is called after every pass."""
+        `should_stop()` is true between passes.  `on_pass(result)` is called after every pass.
+        `ray_record`: None, or `integrator.new_ray_record(width, height, cap)` to store the rays
+        traced (benchmarks)."""
         o = options.resolved(self.desc.settings)
         cam = self.desc.camera
         use_lens = o.depth_of_field and cam.lens_radius > 0 and not self.desc.settings.disable_depth_of_field
@@ -163,7 +165,7 @@ class Renderer:
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
             render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s1, o.spp,
-                        sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters)
+                        sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters, ray_record)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))

@@ -10,6 +10,8 @@ import math
 
 import numba as nb
 
+from .vecmath import SHADING_JIT
+
 _JIT = dict(cache=True, nogil=True, inline='always')
 REPEAT, CLAMP, MIRROR, BLACK = 0, 1, 2, 3
 
@@ -43,7 +45,7 @@ def _texel(S, tid, x, y, c):
     return S.tex_data[off + (yi * w + xi) * ch + cc]
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**SHADING_JIT)
 def sample_texture(S, tid, s, t):
     """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias."""
     w = S.tex_i[tid, 1]
@@ -72,7 +74,7 @@ def sample_texture(S, tid, s, t):
     return (out0, out1, out2)
 
 
-@nb.njit(cache=True, nogil=True)
+@nb.njit(**SHADING_JIT)
 def sample_latlong(S, tid, d):
     """Colour of a lat-long environment image in local direction d (unit)."""
     lon = math.atan2(d[0], d[2])

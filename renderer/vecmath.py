@@ -19,6 +19,14 @@ from numba.extending import intrinsic
 
 _JIT = dict(cache=True, nogil=True, inline='always')
 
+# Options for the per-sample shading functions, which receive the scene tables (`SceneData`, a tuple
+# of ~27 arrays) and allocate nothing.  With numba's reference counting on, every call to such a
+# function increfs and decrefs each array of the tuple with atomic instructions on cache lines both
+# threads share: measured 16 % of the render time in NRT_incref/NRT_decref alone (perf, gallery.xml)
+# and poor 2-thread scaling.  `_nrt=False` compiles them without reference counting (they may
+# not create arrays); the caller (`render_pass`) owns the arrays for the whole pass.
+SHADING_JIT = dict(cache=True, nogil=True, _nrt=False)
+
 
 @intrinsic
 def _f32_bits(typingctx, x):
