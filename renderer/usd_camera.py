@@ -19,6 +19,7 @@ import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdRender
 
 from renderer.description import Camera, RenderSettings
+from renderer.errors import SceneError
 
 Warn = Callable[[str], None]
 ABSURD_LENS = 0.25        # lens radius above this fraction of the scene diagonal is not a real lens
@@ -103,7 +104,22 @@ def read_camera(prim: Usd.Prim, matrix: np.ndarray, motion: Optional[np.ndarray]
     if g.fStop > 0 and not settings.disable_depth_of_field and out.projection == 'perspective':
         out.lens_radius = _sane_lens_radius(path, g.focalLength, g.fStop, g.focusDistance, scene_diagonal,
                                             meters_per_unit, warn)
+    _check_finite(out)
     return out
+
+
+def _check_finite(cam: Camera) -> None:
+    """A camera with a NaN/Inf transform or lens value would make every ray NaN (a black image, every
+    sample dropped): refuse it at load time, naming the prim."""
+    values = [cam.matrix, cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture,
+              cam.horizontal_aperture_offset, cam.vertical_aperture_offset, cam.focus_distance,
+              cam.lens_radius, cam.clip_near]
+    if cam.motion is not None:
+        values.append(cam.motion)
+    if not all(np.all(np.isfinite(np.asarray(v, np.float64))) for v in values):
+        raise SceneError(f'{cam.path}: the camera has a non-finite transform or lens parameter (NaN or Inf)')
+    if cam.projection == 'perspective' and not cam.focal_length > 0:
+        raise SceneError(f'{cam.path}: the camera focal length must be positive, not {cam.focal_length:g}')
 
 
 def _sane_lens_radius(path, focal_tenths, fstop, focus, diagonal, mpu, warn) -> float:

@@ -1,0 +1,120 @@
+"""NaN / Inf in any input is rejected at compile or load time, never rendered.
+
+* Compiler: a NaN or Inf in a course XML value -> `rtc compile` and `rtc render` exit 2.
+* Stage reader: a USD with a NaN/Inf point, transform, radius, light or camera value -> the gprim or
+  light is dropped with a reason, or `SceneError` (camera: there is no sensible fallback view); the
+  description that reaches the renderer holds only finite numbers, and the image has no NaN/Inf.
+"""
+import numpy as np
+import pytest
+from click.testing import CliRunner
+from pxr import Gf, Usd, UsdGeom, UsdLux
+
+from renderer.errors import SceneError
+from renderer.render import RenderOptions, render
+from renderer.stage_reader import read_stage
+from rtc.cli import main
+
+XML = """<?xml version="1.0" encoding="UTF-8" ?>
+<scene>
+  <camera name="main" type="perspective"><position>0 1 5</position><lookatPoint>0 0 0</lookatPoint>
+    <focalLength>0.5</focalLength><imagePlaneWidth>0.5</imagePlaneWidth></camera>
+  <light type="point"><position>{light}</position><intensity>1 1 1</intensity></light>
+  <shader name="w" type="Lambertian"><diffuse>0.8 0.8 0.8</diffuse></shader>
+  <shape name="s" type="sphere"><shader ref="w"/><center>0 0 0</center><radius>{radius}</radius></shape>
+</scene>
+"""
+
+
+@pytest.mark.parametrize('light, radius', [('0 3 nan', '1'), ('0 3 0', 'NaN'), ('0 inf 0', '1'), ('0 3 0', '-inf')])
+def test_compiler_rejects_nonfinite_xml_values(tmp_path, light, radius):
+    src = tmp_path / 'bad.xml'
+    src.write_text(XML.format(light=light, radius=radius))
+    r = CliRunner().invoke(main, ['compile', str(src), '-o', str(tmp_path / 'bad.usda')])
+    assert r.exit_code == 2, r.output
+    assert not (tmp_path / 'bad.usda').exists()
+    r = CliRunner().invoke(main, ['render', str(src), '-o', str(tmp_path / 'bad.exr'), '--width', '8', '-q'])
+    assert r.exit_code == 2 and not (tmp_path / 'bad.exr').exists()
+
+
+def test_the_clean_xml_compiles(tmp_path):
+    src = tmp_path / 'ok.xml'
+    src.write_text(XML.format(light='0 3 0', radius='1'))
+    assert CliRunner().invoke(main, ['compile', str(src), '-o', str(tmp_path / 'ok.usda')]).exit_code == 0
+
+
+NAN, INF = float('nan'), float('inf')
+
+
+def stage():
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    cam = UsdGeom.Camera.Define(st, '/cam')
+    UsdGeom.Xformable(cam).AddTranslateOp().Set(Gf.Vec3d(0, 0, 8))
+    m = UsdGeom.Mesh.Define(st, '/m')
+    m.CreatePointsAttr([(-3, -1, -3), (3, -1, -3), (3, -1, 3), (-3, -1, 3)])
+    m.CreateFaceVertexCountsAttr([4])
+    m.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    UsdGeom.Sphere.Define(st, '/s').CreateRadiusAttr(1.0)
+    light = UsdLux.SphereLight.Define(st, '/l')
+    light.CreateIntensityAttr(30.0)
+    UsdGeom.Xformable(light).AddTranslateOp().Set(Gf.Vec3d(0, 4, 2))
+    return st
+
+
+DROPPED = {   # corruption -> the prim that must disappear from the description
+    'mesh point': ('/m', lambda st: UsdGeom.Mesh(st.GetPrimAtPath('/m')).GetPointsAttr().Set(
+        [(-3, -1, -3), (NAN, -1, -3), (3, -1, 3), (-3, -1, 3)])),
+    'mesh transform': ('/m', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/m')).AddTranslateOp().Set(
+        Gf.Vec3d(NAN, 0, 0))),
+    'sphere radius': ('/s', lambda st: UsdGeom.Sphere(st.GetPrimAtPath('/s')).GetRadiusAttr().Set(NAN)),
+    'sphere scale': ('/s', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/s')).AddScaleOp().Set(
+        Gf.Vec3f(INF, 1, 1))),
+    'light intensity': ('/l', lambda st: UsdLux.SphereLight(st.GetPrimAtPath('/l')).GetIntensityAttr().Set(NAN)),
+    'light transform': ('/l', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/l')).AddRotateXOp().Set(NAN)),
+}
+
+
+def numbers(desc):
+    """Every float the renderer will consume."""
+    out = [desc.instances.matrices.ravel()]
+    for c in desc.containers:
+        out += [m.points.ravel() for m in c.meshes]
+        out += [np.r_[s.radius, s.matrix.ravel()] for s in c.spheres]
+    for l in desc.lights:
+        out += [l.matrix.ravel(), np.asarray(l.radiance, float), np.r_[l.radius, l.width, l.height, l.angle]]
+    c = desc.camera
+    out.append(np.r_[c.matrix.ravel(), c.focal_length, c.horizontal_aperture, c.vertical_aperture,
+                     c.lens_radius, c.focus_distance])
+    return np.concatenate(out)
+
+
+def paths(desc):
+    return {g.path for c in desc.containers for g in c.gprims} | {l.path for l in desc.lights}
+
+
+@pytest.mark.parametrize('case', list(DROPPED))
+def test_reader_drops_nonfinite_prims(case):
+    path, corrupt = DROPPED[case]
+    clean = read_stage(stage())
+    assert path in paths(clean)
+    st = stage()
+    corrupt(st)
+    desc = read_stage(st)
+    assert path not in paths(desc)
+    assert any(path in s for s in [*desc.skipped, *desc.warnings]), (desc.skipped, desc.warnings)
+    assert np.all(np.isfinite(numbers(desc)))
+    img = render(desc, RenderOptions(width=24, height=16, spp=2)).image
+    assert np.all(np.isfinite(img))
+
+
+@pytest.mark.parametrize('corrupt', [
+    lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/cam')).AddRotateYOp().Set(NAN),
+    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFocalLengthAttr(NAN),
+    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateHorizontalApertureAttr(INF),
+], ids=['transform', 'focal length', 'aperture'])
+def test_reader_rejects_a_nonfinite_camera(corrupt):
+    st = stage()
+    corrupt(st)
+    with pytest.raises(SceneError, match='/cam'):
+        read_stage(st)
