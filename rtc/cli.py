@@ -197,21 +197,15 @@ def info_cmd(scene, camera, time_code):
     click.echo(describe(desc))
 
 
-def _register_optional():
-    """Sub-commands that live with their libraries."""
-    try:
-        from compiler.cli import compile_cmd
-        main.add_command(compile_cmd)
-    except ImportError:     # pragma: no cover - the compiler package is part of the distribution
-        pass
-    try:
-        from renderer.converge import converge_cmd
-        main.add_command(converge_cmd)
-    except ImportError:
-        pass
+def _register_subcommands():
+    """Sub-commands that live in their own modules."""
+    from compiler.cli import compile_cmd
+    from rtc.converge_cmd import converge_cmd
+    main.add_command(compile_cmd)
+    main.add_command(converge_cmd)
 
 
-_register_optional()
+_register_subcommands()
 
 
 if __name__ == '__main__':
