@@ -30,7 +30,7 @@ from . import description as D
 from .build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .cameras import C_FAR, C_LENS, C_NEAR, generate_ray
 from .filters import filter_offset
-from .lights import escaped_radiance, sample_light
+from .lights import escaped_radiance, light_is_area, sample_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .samplers import DIM_BOUNCE0, DIM_LENS, DIM_PIXEL, DIM_TIME, sample_1d, sample_2d
@@ -151,7 +151,10 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
         if has_diffuse_lobe(model):
             po = offset_origin(p, ng, osc)
             for k in range(n_lights):
-                u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
+                u1 = 0.5
+                u2 = 0.5
+                if light_is_area(S, k):
+                    u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
                 wi, dist, E = sample_light(S, k, p, ns, u1, u2)
                 if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
                     continue
@@ -172,8 +175,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
                 Lb += tb * c[2]
         if depth == max_depth:
             break
-        # ---- one specular continuation
-        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        # ---- one specular continuation (the glossy pair is drawn only where a lobe uses it)
         if model == D.DIELECTRIC:
             ior = float(mf[mat, MF_IOR])
             eta = ior if front else 1.0 / ior
@@ -197,6 +199,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             dx, dy, dz = nd
         elif model == D.PREVIEW_SURFACE:
             diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
+            g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
             tt, bb = onb(ns)
             h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
             nd = reflect(dvec, h)
@@ -227,6 +230,7 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             rough = float(mf[mat, MF_ROUGH])
             if rough > 0.0 and model == D.BLINN_PHONG_MIRRORED:
                 # the course's glossy reflection: perturb r on a square of side `roughness`
+                g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
                 tt, bb = onb(nd)
                 a = rough * (g1 - 0.5)
                 b = rough * (g2 - 0.5)

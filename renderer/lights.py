@@ -30,6 +30,14 @@ def _col(li_f, k, j):
 
 
 @nb.njit(**SHADING_JIT)
+def light_is_area(S, k):
+    """True if light k has extent (its sample point uses a 2D sample): not a point light, not a
+    distant light of zero angle.  Delta lights draw no sample: nothing is computed they don't need."""
+    t = S.li_type[k]
+    return not (t == D.POINT or (t == D.DISTANT and S.li_f[k, LF_COS_MAX] >= 1.0))
+
+
+@nb.njit(**SHADING_JIT)
 def sample_light(S, k, p, n, u1, u2):
     """-> (wi, dist, E_perp rgb).  E_perp = (0,0,0) when the sample cannot contribute (behind the
     light, inside a sphere light, ...).  n is the shading normal facing the viewer; only the dome

@@ -75,10 +75,10 @@ def test_gaussian_variance_and_cdf_inversion():
     assert abs(d[:, 0].mean()) < 1e-5 and abs(d[:, 1].mean()) < 1e-5
     assert abs(d[:, 0].var() - var) < 2e-5
     assert abs(d[:, 1].var() - var) < 2e-5
-    # the warp is the inverse CDF to near machine precision
+    # the warp is the inverse CDF to 1e-8 (Hermite interpolation of a 4097-entry table)
     for u in np.linspace(0.0, 0.999999, 997):
         x = F.sample_gaussian_1d(u)
-        assert abs(F.gaussian_cdf(x) - u) < 1e-12
+        assert abs(F.gaussian_cdf(x) - u) < 1e-8
     assert F.sample_gaussian_1d(0.0) == -1.5
     assert abs(F.sample_gaussian_1d(0.5)) < 1e-12
 
