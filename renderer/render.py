@@ -17,7 +17,7 @@ import numpy as np
 
 from . import description as D
 from .build import build
-from .cameras import camera_table
+from .cameras import C_LENS, camera_table
 from .film import Film
 from .filters import FILTER_NAMES
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, render_pass
@@ -144,7 +144,7 @@ class Renderer:
                     and (self.built.motion_steps > 1 or cam.motion is not None))
         ctab = camera_table(cam, o.width, o.height, self.built.origin, depth_of_field=use_lens,
                             motion_blur=use_time)
-        use_lens = bool(ctab[29] > 0)
+        use_lens = bool(ctab[C_LENS] > 0)
         if film is None:
             film = Film(o.width, o.height)
         elif (film.width, film.height) != (o.width, o.height):

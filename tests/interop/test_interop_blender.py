@@ -7,7 +7,7 @@ same world transforms; with Blender's scene instancing, one collection-instance 
 instance with the instance's world transform and one collection per prototype; the same lights
 and cameras at the same places; and, for Mesh gprims, the bound material.  Blender converts the
 Y-up stage to Z-up by rotating the root +90 degrees about X, so Blender's matrix_world equals
-``Rx(90) @ M_usd`` (column-vector form).  Pitfalls found are described in docs/interop.md.
+``Rx(90) @ M_usd`` (column-vector form).  Pitfalls found are described in README.md ("Using rtc with other USD tools").
 """
 from __future__ import annotations
 
@@ -89,7 +89,7 @@ def test_expanded_import_matches(compiled):
     match([world(p) for p in usd['gprims']], [o['matrix'] for o in meshes], 'meshes')
     match([world(p) for p in usd['lights']], [o['matrix'] for o in objs if o['type'] == 'LIGHT'], 'lights')
     match([world(p) for p in usd['cameras']], [o['matrix'] for o in objs if o['type'] == 'CAMERA'], 'cameras')
-    # materials on Mesh gprims (Blender drops bindings on implicit shapes, see docs/interop.md)
+    # materials on Mesh gprims (Blender drops bindings on implicit shapes, see README.md ("Using rtc with other USD tools"))
     want = sorted(UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()[0].GetPrim().GetName()
                   for p in usd['gprims'] if p.IsA(UsdGeom.Mesh))
     got = sorted(m for o in meshes for m in o['materials'] if m)
