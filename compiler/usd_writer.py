@@ -9,6 +9,7 @@ text) and an optional lat-long environment image, which `api` writes atomically.
 """
 from __future__ import annotations
 
+import functools
 import math
 import os
 from dataclasses import dataclass, field
@@ -107,17 +108,25 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
 
 # ----------------------------------------------------------------------------- names
 class _Names:
-    """Valid, unique prim names per parent path; course names are labels and may repeat (Q6)."""
+    """Valid, unique prim names per parent path; course names are labels and may repeat (Q6): the
+    second "egg" becomes "egg_1", the third "egg_2"."""
 
     def __init__(self):
         self.taken: dict[str, set[str]] = {}
+        self._next: dict[tuple[str, str], int] = {}     # (parent, base) -> first suffix to try
 
     def unique(self, parent: str, wanted: str) -> str:
-        base = Tf.MakeValidIdentifier(wanted or "unnamed")
+        # An ASCII Python identifier is a valid USD identifier: skip the call into Tf for the
+        # usual names (this runs once per placement).
+        base = wanted if wanted.isascii() and wanted.isidentifier() else \
+            Tf.MakeValidIdentifier(wanted or "unnamed")
         taken = self.taken.setdefault(parent, set())
-        name, n = base, 1
-        while name in taken:
-            name, n = f"{base}_{n}", n + 1
+        name = base
+        if name in taken:                       # count on from the last suffix given to this base,
+            n = self._next.get((parent, base), 1)   # so 10^5 unnamed placements stay linear
+            while (name := f"{base}_{n}") in taken:
+                n += 1
+            self._next[(parent, base)] = n + 1
         taken.add(name)
         return name
 
@@ -379,32 +388,36 @@ class _Bulk:
             rel.SetInfo("bindMaterialAs", UsdShade.Tokens.strongerThanDescendants)
 
     def _ops(self, spec: Sdf.PrimSpec, motion: Motion, local: list[tuple[str, object]] = ()) -> None:
-        """The course transform as xformOps in document order, then the geometry's own ops."""
-        order: list[str] = []
+        """The course transform as xformOps in document order, then the geometry's own ops.
+
+        This runs once per placement, so everything that depends only on the sequence of operation
+        kinds (attribute names, value types, the xformOpOrder array) comes from `_op_plan`; what
+        is left per op is the attribute spec and its value."""
         samples = motion.samples
-        animated = motion.is_animated
-        if samples and len({tuple(op.kind for op in s.ops) for s in samples}) == 1:
-            counts: dict[str, int] = {}
-            for k, op in enumerate(samples[0].ops):
-                n = counts[op.kind] = counts.get(op.kind, -1) + 1
-                name = f"xformOp:{op.kind}:t{n}" if n else f"xformOp:{op.kind}"
-                attr = Sdf.AttributeSpec(spec, name, _OP_TYPES[op.kind])
-                if animated:
-                    for s in samples:
-                        self.layer.SetTimeSample(attr.path, s.time, _op_value(s.ops[k]))
+        order: tuple[str, ...] = ()
+        if samples:
+            kinds = tuple([op.kind for op in samples[0].ops])
+            if all(tuple([op.kind for op in s.ops]) == kinds for s in samples[1:]):
+                order, types = _op_plan(kinds)
+                if motion.is_animated:
+                    for k, (name, type_name) in enumerate(zip(order, types)):
+                        path = Sdf.AttributeSpec(spec, name, type_name).path
+                        for s in samples:
+                            self.layer.SetTimeSample(path, s.time, _op_value(s.ops[k]))
                 else:
-                    attr.default = _op_value(op)
-                order.append(name)
-        elif samples:                            # operations differ between samples: matrices
-            attr = Sdf.AttributeSpec(spec, "xformOp:transform", _T.Matrix4d)
-            for s in samples:
-                self.layer.SetTimeSample(attr.path, s.time, _gf(s.matrix()))
-            order.append("xformOp:transform")
+                    for op, name, type_name in zip(samples[0].ops, order, types):
+                        Sdf.AttributeSpec(spec, name, type_name).default = _op_value(op)
+            else:                                # operations differ between samples: matrices
+                path = Sdf.AttributeSpec(spec, "xformOp:transform", _T.Matrix4d).path
+                for s in samples:
+                    self.layer.SetTimeSample(path, s.time, _gf(s.matrix()))
+                order = ("xformOp:transform",)
         for name, value in local:
             Sdf.AttributeSpec(spec, name, _OP_TYPES[name.split(":")[1]]).default = value
-            order.append(name)
+            order += (name,)
         if order:
-            self._attr(spec, "xformOpOrder", _T.TokenArray, Vt.TokenArray(order), uniform=True)
+            Sdf.AttributeSpec(spec, "xformOpOrder", _T.TokenArray,
+                              Sdf.VariabilityUniform).default = _op_order(order)
 
     # -- meshes
     def meshes(self, meshes: dict[Path, ObjMesh], assets: AssetPlan, out: WrittenScene) -> dict[Path, Sdf.Reference]:
@@ -482,16 +495,40 @@ class _Bulk:
             self.proto_paths[id(proto)] = root.path
 
     def placements(self, placements: list[Placement]) -> None:
+        """Per placement: an instanceable Xform referencing its prototype, its ops, and a material
+        binding when it overrides the prototype's shader.  Scenes have up to 10^5 of these, so
+        the loop makes the Sdf calls and little else (about 10 per placement)."""
         if not placements:
             return
         parent = self._root("/World/Instances", "Scope")
+        parent_path = str(parent.path)
+        references = {key: Sdf.Reference("", path) for key, path in self.proto_paths.items()}
+        unique = self.names.unique
         for p in placements:
-            spec = self._child(parent, p.name, "Xform")
-            spec.referenceList.Prepend(Sdf.Reference("", self.proto_paths[id(p.prototype)]))
+            spec = Sdf.PrimSpec(parent, unique(parent_path, p.name), Sdf.SpecifierDef, "Xform")
+            spec.referenceList.Prepend(references[id(p.prototype)])
             spec.instanceable = True
             self._ops(spec, p.motion)
             if p.shader is not None:
                 self._bind(spec, p.shader, stronger=True)
+
+
+@functools.lru_cache(maxsize=None)
+def _op_plan(kinds: tuple[str, ...]) -> tuple[tuple[str, ...], tuple]:
+    """Attribute names and value types of the xformOps for a sequence of course operation kinds:
+    `xformOp:<kind>`, with `:t1`, `:t2`... on the second, third... use of the same kind."""
+    counts: dict[str, int] = {}
+    names = []
+    for kind in kinds:
+        n = counts[kind] = counts.get(kind, -1) + 1
+        names.append(f"xformOp:{kind}:t{n}" if n else f"xformOp:{kind}")
+    return tuple(names), tuple(_OP_TYPES[kind] for kind in kinds)
+
+
+@functools.lru_cache(maxsize=None)
+def _op_order(names: tuple[str, ...]) -> Vt.TokenArray:
+    """The xformOpOrder value (one array per distinct order, shared by all prims that use it)."""
+    return Vt.TokenArray(names)
 
 
 def _op_value(op):

@@ -53,8 +53,9 @@ _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=Fal
 def read_scene(path: Path, diags: Diagnostics) -> Scene:
     """Read and check a scene file.  Raises CompileError when the scene has errors."""
     root = _parse(path, diags)
-    schema.remove_unknown(root, diags)
-    schema.validate(root.getroottree(), diags)
+    if not schema.is_valid(root.getroottree()):  # else nothing unknown to report (closed schema)
+        schema.remove_unknown(root, diags)
+        schema.validate(root.getroottree(), diags)
     diags.raise_if_errors()                     # typed reading assumes a structurally valid tree
     scene = _Reader(path, diags).scene(root)
     diags.raise_if_errors()
@@ -382,10 +383,10 @@ class _Reader:
         return Prototype(el.get("name"), geometry, shader, el.sourceline, transform)
 
     def _shape(self, el):
-        c = self._first_children(el)
+        c, transforms = self._children(el)
         kind = el.get("type")
         name = el.get("name") or f"{kind}"
-        motion = self._motion(el.findall("transform"))
+        motion = self._motion(transforms)
         if kind == "instance":
             for extra in (n for n in c if n in _ALL_GEOMETRY):
                 self.diags.at(c[extra]).warning("geometry on a placement is ignored (it comes from the "
@@ -476,6 +477,8 @@ class _Reader:
         transforms = [self._transform(t) for t in elements]
         if None in transforms:
             return None
+        if len(transforms) == 1 and transforms[0].time is None:
+            return Motion((transforms[0],))      # the common case: one static transform
         static = [t for t in transforms if t.time is None]
         timed = [t for t in transforms if t.time is not None]
         if timed:
@@ -501,11 +504,12 @@ class _Reader:
             time = value[0]
         ops = []
         for op in el:
-            if op.tag == "rotate":
+            tag = op.tag
+            if tag == "rotate":
                 angle = self._scalar(op)
                 ops.append(None if angle is None else Op("rotate" + op.get("axis"), angle))
             else:
-                ops.append(None if (v := self._vector(op)) is None else Op(op.tag, v))
+                ops.append(None if (v := self._vector(op)) is None else Op(tag, v))
         if None in ops:
             return None
         return Transform(tuple(ops), el.sourceline, time)
@@ -535,14 +539,23 @@ class _Reader:
     def _first_children(self, el) -> dict:
         """Child elements by tag, first occurrence wins (spec section 1); repeats are warned about
         (transforms, which carry motion samples, are read separately)."""
+        return self._children(el)[0]
+
+    def _children(self, el) -> tuple[dict, list]:
+        """`_first_children` and the list of every <transform> child, in one pass."""
         first: dict = {}
+        transforms = []
         for child in el:
-            if child.tag in first and child.tag != "transform":
-                self.diags.at(child).warning(f"repeated <{child.tag}>: the first one (line "
-                                             f"{first[child.tag].sourceline}) is used")
-                continue
-            first.setdefault(child.tag, child)
-        return first
+            tag = child.tag
+            if tag == "transform":
+                transforms.append(child)
+                first.setdefault(tag, child)
+            elif tag in first:
+                self.diags.at(child).warning(f"repeated <{tag}>: the first one (line "
+                                             f"{first[tag].sourceline}) is used")
+            else:
+                first[tag] = child
+        return first, transforms
 
     def _existing_file(self, el, what: str) -> Optional[Path]:
         text = (el.text or "").strip()
@@ -574,7 +587,7 @@ class _Reader:
         return self._positive(c[name])
 
     def _vector(self, el) -> Optional[Vec3]:
-        return self._numbers_text(el.text, 3, el.sourceline, el.tag)
+        return _finite_numbers(el.text, 3) or self._numbers_text(el.text, 3, el.sourceline, el.tag)
 
     def _colour(self, el) -> Optional[Vec3]:
         value = self._vector(el)
@@ -583,7 +596,7 @@ class _Reader:
         return value
 
     def _scalar(self, el, minimum: Optional[float] = None) -> Optional[float]:
-        value = self._numbers_text(el.text, 1, el.sourceline, el.tag)
+        value = _finite_numbers(el.text, 1) or self._numbers_text(el.text, 1, el.sourceline, el.tag)
         if value is None:
             return None
         if minimum is not None and value[0] < minimum:
@@ -629,6 +642,18 @@ class _Reader:
             self.diags.error(f"{where}NaN and infinity are not allowed: {text!r}", line, element)
             return None
         return values
+
+
+def _finite_numbers(text: Optional[str], count: int) -> Optional[tuple[float, ...]]:
+    """`count` finite numbers, or None for anything else (then `_Reader._numbers_text` reads the
+    text again and reports the problem).  This is the path of every well-formed value, so it does
+    no bookkeeping: no line lookup, no message; one sum tests all values for NaN and infinity
+    (an overflowing sum only sends the value down the exact path)."""
+    try:
+        values = tuple(map(float, text.split()))
+    except (ValueError, AttributeError):
+        return None
+    return values if len(values) == count and math.isfinite(sum(values)) else None
 
 
 def _greedy(text: str, count: int) -> Optional[tuple[float, ...]]:
