@@ -26,12 +26,13 @@ def check_transforms(scene: Scene, diags: Diagnostics) -> None:
     finite = np.isfinite(matrices).all(axis=(1, 2))
     singular = np.zeros(len(transforms), bool)
     singular[finite] = singular_mask(matrices[finite])
-    for t, ok, sing in zip(transforms, finite, singular):
-        if not ok:
-            diags.error("the transform is not finite (its product overflows)", t.line, "transform")
-        elif sing:
+    for i in np.flatnonzero(~finite | singular):
+        if not finite[i]:
+            diags.error("the transform is not finite (its product overflows)", transforms[i].line,
+                        "transform")
+        else:
             diags.error("the transform is singular (a zero scale or collapsed axes): it has no inverse",
-                        t.line, "transform")
+                        transforms[i].line, "transform")
 
 
 def local_box(geometry: Geometry, meshes: dict) -> tuple[np.ndarray, np.ndarray]:

@@ -39,7 +39,8 @@ class Motion:
 
     @property
     def is_animated(self) -> bool:
-        return len(self.samples) > 1 or any(s.time is not None for s in self.samples)
+        samples = self.samples                  # asked once per placement: no generator
+        return len(samples) > 1 or (len(samples) == 1 and samples[0].time is not None)
 
     @property
     def times(self) -> tuple[float, ...]:

@@ -139,11 +139,12 @@ def compose_many(op_lists: Sequence[Sequence[Op]]) -> np.ndarray:
     out = np.empty((len(op_lists), 4, 4))
     groups: dict[tuple[str, ...], list[int]] = {}
     for i, ops in enumerate(op_lists):
-        groups.setdefault(tuple(op.kind for op in ops), []).append(i)
+        groups.setdefault(tuple([op.kind for op in ops]), []).append(i)
     for kinds, members in groups.items():
-        m = np.broadcast_to(np.eye(4), (len(members), 4, 4)).copy()
+        lists = [op_lists[i] for i in members]
+        m = np.broadcast_to(np.eye(4), (len(members), 4, 4))
         for k, kind in enumerate(kinds):
-            values = np.array([op_lists[i][k].value for i in members], dtype=np.float64)
+            values = np.array([ops[k].value for ops in lists], dtype=np.float64)
             m = m @ _batch_matrices(kind, values)
         out[members] = m
     return out
