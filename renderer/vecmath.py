@@ -136,9 +136,9 @@ def xform_dir(m, v):
 
 
 @nb.njit(**_JIT)
-def cofactor_dir(m, v):
-    """cof(L) v for the 3x3 part L of m: equals det(L) L^-T v.  Normals transform with L^-T; the
-    cofactor form needs no division and stays finite for near-singular L."""
+def cofactors(m):
+    """Cofactor matrix C (row-major 9-tuple) and determinant of the 3x3 part L of m.
+    C = det(L) L^-T, so L^-1 = C^T / det(L)."""
     c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
     c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
     c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
@@ -149,33 +149,34 @@ def cofactor_dir(m, v):
     c21 = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
     c22 = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
     det = m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02
+    return (c00, c01, c02, c10, c11, c12, c20, c21, c22), det
+
+
+@nb.njit(**_JIT)
+def cofactor_dir(m, v):
+    """sign(det L) cof(L) v = |det L| L^-T v.  Normals transform with L^-T; the cofactor form needs
+    no division, stays finite for near-singular L, and with the sign keeps a mirrored (det < 0)
+    placement's outside outside."""
+    c, det = cofactors(m)
     sgn = 1.0 if det >= 0.0 else -1.0
-    return (sgn * (c00 * v[0] + c01 * v[1] + c02 * v[2]),
-            sgn * (c10 * v[0] + c11 * v[1] + c12 * v[2]),
-            sgn * (c20 * v[0] + c21 * v[1] + c22 * v[2]))
+    return (sgn * (c[0] * v[0] + c[1] * v[1] + c[2] * v[2]),
+            sgn * (c[3] * v[0] + c[4] * v[1] + c[5] * v[2]),
+            sgn * (c[6] * v[0] + c[7] * v[1] + c[8] * v[2]))
 
 
 @nb.njit(**_JIT)
 def inverse_xform(m, p, v):
-    """Object-space point and direction of a world point p and direction v under m = [L | T]."""
+    """Object-space point and direction of a world point p and direction v under m = [L | T]
+    (L^-1 = cof(L)^T / det L)."""
+    c, det = cofactors(m)
+    inv = 1.0 / det
     q = (p[0] - m[0, 3], p[1] - m[1, 3], p[2] - m[2, 3])
-    c00 = m[1, 1] * m[2, 2] - m[1, 2] * m[2, 1]
-    c01 = m[1, 2] * m[2, 0] - m[1, 0] * m[2, 2]
-    c02 = m[1, 0] * m[2, 1] - m[1, 1] * m[2, 0]
-    c10 = m[0, 2] * m[2, 1] - m[0, 1] * m[2, 2]
-    c11 = m[0, 0] * m[2, 2] - m[0, 2] * m[2, 0]
-    c12 = m[0, 1] * m[2, 0] - m[0, 0] * m[2, 1]
-    c20 = m[0, 1] * m[1, 2] - m[0, 2] * m[1, 1]
-    c21 = m[0, 2] * m[1, 0] - m[0, 0] * m[1, 2]
-    c22 = m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0]
-    inv = 1.0 / (m[0, 0] * c00 + m[0, 1] * c01 + m[0, 2] * c02)
-    # L^-1 = adj(L)/det = cof(L)^T / det
-    po = ((c00 * q[0] + c10 * q[1] + c20 * q[2]) * inv,
-          (c01 * q[0] + c11 * q[1] + c21 * q[2]) * inv,
-          (c02 * q[0] + c12 * q[1] + c22 * q[2]) * inv)
-    vo = ((c00 * v[0] + c10 * v[1] + c20 * v[2]) * inv,
-          (c01 * v[0] + c11 * v[1] + c21 * v[2]) * inv,
-          (c02 * v[0] + c12 * v[1] + c22 * v[2]) * inv)
+    po = ((c[0] * q[0] + c[3] * q[1] + c[6] * q[2]) * inv,
+          (c[1] * q[0] + c[4] * q[1] + c[7] * q[2]) * inv,
+          (c[2] * q[0] + c[5] * q[1] + c[8] * q[2]) * inv)
+    vo = ((c[0] * v[0] + c[3] * v[1] + c[6] * v[2]) * inv,
+          (c[1] * v[0] + c[4] * v[1] + c[7] * v[2]) * inv,
+          (c[2] * v[0] + c[5] * v[1] + c[8] * v[2]) * inv)
     return po, vo
 
 
