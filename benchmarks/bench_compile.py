@@ -1,9 +1,11 @@
 """Compiler benchmarks: OBJ parsing (rtc's vectorised parser vs trimesh) and compile time / output
 size for generated scenes of 10^3, 10^4, 10^5 placements of one 100k-triangle mesh.
 
-    python benchmarks/bench_compile.py [--counts 1000 10000 100000] [--repeat 3]
+    python benchmarks/bench_compile.py [--counts 1000 10000 100000] [--repeat 3] [--split]
 
-Prints a Markdown table for benchmarks/RESULTS.md ("Compiler").  The mesh is the course's
+Prints Markdown tables for benchmarks/RESULTS.md ("Compiler"); `--split` adds where the time goes
+(read = XML parse, schema check and typed reading; prepare = OBJ load, transform checks, bounds;
+author = building the USD layers; write = exporting them).  The mesh is the course's
 dragon (100,000 triangles) when shared/corpus is beside the repo, else a generated 100k-triangle
 grid.  Each placement has its own translate / rotateY / scale / rotateX, like the course dragons.
 """
@@ -25,8 +27,13 @@ from pxr import Sdf
 REPO = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(REPO))
 
+from compiler import api  # noqa: E402
 from compiler.api import compile_file  # noqa: E402
+from compiler.bounds import check_transforms, world_bounds  # noqa: E402
+from compiler.diagnostics import Diagnostics  # noqa: E402
 from compiler.obj import load_obj  # noqa: E402
+from compiler.usd_writer import AssetPlan, RenderOptions, write_scene  # noqa: E402
+from compiler.xml_reader import read_scene  # noqa: E402
 
 DRAGON = REPO.parent / "shared" / "corpus" / "course" / "scenes_B" / "objFiles" / "dragon.obj"
 
@@ -79,6 +86,34 @@ def median_time(fn, repeat: int) -> float:
     return statistics.median(times)
 
 
+def phase_times(xml: Path, out: Path) -> dict[str, float]:
+    """compile_file's steps, timed one by one (same calls, cyclic GC off as in compile_file)."""
+    times, start = {}, time.perf_counter()
+
+    def lap(name):
+        nonlocal start
+        now = time.perf_counter()
+        times[name], start = now - start, now
+
+    with api._no_cyclic_gc():
+        diags = Diagnostics(str(xml))
+        scene = read_scene(xml, diags)
+        lap("read")
+        meshes = api._load_meshes(scene, diags)
+        check_transforms(scene, diags)
+        bounds = world_bounds(scene, meshes)
+        lap("prepare")
+        plan = AssetPlan(anchor=out.parent, side_dir=f"{out.stem}_assets", meshes_inline=out.suffix != ".usda")
+        written = write_scene(scene, meshes, RenderOptions(), plan, bounds)
+        lap("author")
+        (out.parent / plan.side_dir).mkdir(exist_ok=True)
+        for name, layer in written.side_layers.items():
+            layer.Export(str(out.parent / plan.side_dir / name))
+        written.root.Export(str(out))
+        lap("write")
+    return times
+
+
 def output_size(out: Path) -> int:
     files = [out] + sorted((out.parent / f"{out.stem}_assets").glob("*"))
     return sum(f.stat().st_size for f in files if f.is_file())
@@ -102,6 +137,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--counts", type=int, nargs="+", default=[1000, 10000, 100000])
     parser.add_argument("--repeat", type=int, default=3)
+    parser.add_argument("--split", action="store_true", help="also time read / prepare / author / write")
     args = parser.parse_args()
     print(f"machine: {platform.machine()}, {platform.processor() or '?'}, Python {platform.python_version()}, "
           f"{platform.system()} {platform.release()}; date {date.today()}")
@@ -132,6 +168,15 @@ def main() -> None:
                 row += [f"{t:.2f}", f"{output_size(out) / 1e6:.1f}"]
                 prims = mesh_prims(out) if prims is None else prims
             print("| " + " | ".join(row + [str(prims)]) + " |", flush=True)
+        if args.split:
+            print(f"\nWhere the time goes (s), median of {args.repeat}:")
+            print("| placements | output | read | prepare | author | write |\n|---|---|---|---|---|---|")
+            for n in args.counts:
+                xml = work / f"placements_{n}.xml"
+                for suffix in (".usda", ".usdc"):
+                    runs = [phase_times(xml, work / f"split_{n}{suffix}") for _ in range(args.repeat)]
+                    cells = [f"{statistics.median(r[k] for r in runs):.2f}" for k in runs[0]]
+                    print(f"| {n:,} | {suffix} | " + " | ".join(cells) + " |", flush=True)
 
 
 if __name__ == "__main__":

@@ -497,7 +497,10 @@ class _Bulk:
     def placements(self, placements: list[Placement]) -> None:
         """Per placement: an instanceable Xform referencing its prototype, its ops, and a material
         binding when it overrides the prototype's shader.  Scenes have up to 10^5 of these, so
-        the loop makes the Sdf calls and little else (about 10 per placement)."""
+        the loop makes the Sdf calls and little else (about 10 per placement).  Measured
+        alternatives (benchmarks/RESULTS.md, Compiler) were slower per placement: generated .usda
+        text through `Sdf.Layer.ImportFromString` (usd-core's text parser), and `Sdf.CopySpec`
+        of a template placement followed by setting its values."""
         if not placements:
             return
         parent = self._root("/World/Instances", "Scope")
@@ -513,7 +516,7 @@ class _Bulk:
                 self._bind(spec, p.shader, stronger=True)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _op_plan(kinds: tuple[str, ...]) -> tuple[tuple[str, ...], tuple]:
     """Attribute names and value types of the xformOps for a sequence of course operation kinds:
     `xformOp:<kind>`, with `:t1`, `:t2`... on the second, third... use of the same kind."""
@@ -525,7 +528,7 @@ def _op_plan(kinds: tuple[str, ...]) -> tuple[tuple[str, ...], tuple]:
     return tuple(names), tuple(_OP_TYPES[kind] for kind in kinds)
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def _op_order(names: tuple[str, ...]) -> Vt.TokenArray:
     """The xformOpOrder value (one array per distinct order, shared by all prims that use it)."""
     return Vt.TokenArray(names)

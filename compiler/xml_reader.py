@@ -616,14 +616,16 @@ class _Reader:
     def _numbers_text(self, text: Optional[str], count: int, line: int, element: str,
                       attribute: Optional[str] = None) -> Optional[tuple]:
         """Exactly `count` finite decimals.  Text a C++ stream would still read greedily
-        ("-5.5.0 0.0 -7.5" -> -5.5 .0 0.0, Q12) is read the same way, with a warning."""
+        ("-5.5.0 0.0 -7.5" -> -5.5 .0 0.0, Q12) is read the same way, with a warning.  Element
+        values try `_finite_numbers` first and come here only when it fails, with the line."""
+        values = _finite_numbers(text, count)
+        if values is not None:
+            return values
         tokens = (text or "").split()
         try:
             values = tuple(map(float, tokens))
         except ValueError:
             values = None
-        if values is not None and len(values) == count and all(map(math.isfinite, values)):
-            return values                       # the common case, kept fast
         where = f"attribute '{attribute}': " if attribute else ""
         text = " ".join(tokens)
         noun = "number" if count == 1 else "numbers"
