@@ -30,7 +30,7 @@ _JIT = dict(cache=True, nogil=True)
 GOOCH_BLUE, GOOCH_YELLOW, GOOCH_ALPHA, GOOCH_BETA = 0.4, 0.4, 0.2, 0.6
 
 
-@nb.njit(**SHADING_JIT)
+@nb.njit(**SHADING_JIT, inline='always')
 def colors(S, mat, st):
     """(kd, ks) with textures applied."""
     mf = S.mat_f
@@ -60,7 +60,7 @@ def _schlick(f0, f90, c):
     return f0 + (f90 - f0) * x5
 
 
-@nb.njit(**SHADING_JIT)
+@nb.njit(**SHADING_JIT, inline='always')
 def preview_params(S, mat, kd, ks):
     """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface."""
     mf = S.mat_f
@@ -93,7 +93,7 @@ def smith_g(nl, nv, alpha):
     return (nl / (nl * (1.0 - k) + k)) * (nv / (nv * (1.0 - k) + k))
 
 
-@nb.njit(**SHADING_JIT)
+@nb.njit(**SHADING_JIT, inline='always')
 def direct(S, mat, kd, ks, n, wo, wi, E):
     """Reflected radiance towards wo from one light sample arriving along wi with E_perp = E.
     n is the shading normal on the viewer's side."""
@@ -173,7 +173,7 @@ def refract(d, n, eta, cos_i, cos_t):
                       k * d[2] + (k * cos_i - cos_t) * n[2]))
 
 
-@nb.njit(**SHADING_JIT)
+@nb.njit(**SHADING_JIT, inline='always')
 def mirror_weight(S, mat, model, ks):
     """Colour weight of the specular continuation of the course models (0 = none)."""
     if model == D.MIRROR:

@@ -20,7 +20,7 @@ from .build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE
 from .trace import instance_transform
 from .vecmath import SHADING_JIT, cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
-@nb.njit(**SHADING_JIT)
+@nb.njit(**SHADING_JIT, inline='always')
 def surface(S, scene, inst_id, inst_prim, geom_id, prim_id, bu, bv, o, d, t, time, m, m32):
     """-> (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
     Moving placements take their matrix from Embree (interpolated exactly as it was traced: lerped
