@@ -16,7 +16,7 @@ import math
 
 import numba as nb
 
-from .build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE
+from .build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
 from .trace import instance_transform
 from .vecmath import SHADING_JIT, cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
@@ -54,9 +54,13 @@ def surface(S, scene, inst_id, inst_prim, geom_id, prim_id, bu, bv, o, d, t, tim
         pobj = (c[0] + r * nobj[0], c[1] + r * nobj[1], c[2] + r * nobj[2])
         p = xform_point(m, pobj)
         ng = normalize(cofactor_dir(m, nobj))
-        # spherical (lat-long) texture coordinates, +Y up, seam at -X
-        s = 0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi)
-        tt = 0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi
+        # spherical (lat-long) texture coordinates, +Y up, seam at -X; only for textured materials
+        # (an atan2 and an asin per hit otherwise wasted)
+        s = 0.0
+        tt = 0.0
+        if S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0:
+            s = 0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi)
+            tt = 0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi
         return p, ng, ng, (s, tt), g, mat
     tri = S.gp_off[g] + prim_id
     v = S.tri_v
