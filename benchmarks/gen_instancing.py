@@ -1,8 +1,15 @@
-"""Write large instancing stages for timing `renderer.stage_reader.read_stage`.
+"""Write large instancing stages for timing `renderer.stage_reader.read_stage`, and time it.
 
     python benchmarks/gen_instancing.py native 100000 /tmp/native_1e5.usdc
     python benchmarks/gen_instancing.py pi 1000000 /tmp/pi_1e6.usdc
     python benchmarks/gen_instancing.py pi-mesh 1000000 /tmp/pim_1e6.usdc [--tris 100000]
+    python benchmarks/gen_instancing.py time /tmp/native_1e5.usdc [more files] [--repeat 3] [--tree DIR ...]
+
+``time``: `read_stage(path)` (open included) in a fresh process per measurement, then again split
+into `Usd.Stage.Open` and `read_stage(stage)`; wall and CPU seconds, median of ``--repeat``
+rounds.  Each ``--tree`` is a checkout whose ``renderer`` package is imported instead of this one
+(e.g. ``git archive HEAD~1 renderer | tar -x -C /tmp/before``); trees alternate within every round
+so that A/B comparisons share the machine's load.
 
 ``native``: N instanceable Xforms (``MakeMatrixXform`` placements) referencing one of two
 prototypes in an ``over "Prototypes"`` library (the layout rtc's compiler writes); every tenth
@@ -19,6 +26,7 @@ going through ``UsdGeom`` per prim would make the generator, not the reader, the
 """
 from __future__ import annotations
 
+import os
 import sys
 
 import numpy as np
@@ -167,7 +175,60 @@ def write_point_instancer_mesh(n: int, path: str, tris: int = 100_000) -> None:
     stage.GetRootLayer().Save()
 
 
+_TIMER = r"""
+import sys, time
+sys.path.insert(0, sys.argv[1])
+from pxr import Usd
+from renderer.stage_reader import read_stage
+w, c = time.perf_counter, time.process_time
+t, tc = w(), c()
+if sys.argv[3] == 'total':
+    d = read_stage(sys.argv[2])
+    print(w() - t, c() - tc, 0, 0, d.instances.count)
+else:
+    stage = Usd.Stage.Open(sys.argv[2])
+    t1, tc1 = w(), c()
+    d = read_stage(stage)
+    print(t1 - t, tc1 - tc, w() - t1, c() - tc1, d.instances.count)
+"""
+
+
+def time_reads(files: list[str], trees: list[str], repeat: int) -> None:
+    import statistics
+    import subprocess
+    runs: dict = {}
+    for _ in range(repeat):
+        for path in files:
+            for tree in trees:
+                for mode in ('total', 'split'):
+                    out = subprocess.run([sys.executable, '-c', _TIMER, tree, path, mode], check=True,
+                                         capture_output=True, text=True).stdout.split()
+                    runs.setdefault((path, tree, mode), []).append([float(x) for x in out])
+    print(f'{"file":28s} {"tree":24s} {"read_stage wall/cpu s":>22s} {"open wall/cpu":>14s} '
+          f'{"read(stage) wall/cpu":>21s} placements')
+    for path in files:
+        for tree in trees:
+            total = runs[(path, tree, 'total')]
+            split = runs[(path, tree, 'split')]
+            med = [statistics.median(r[i] for r in total) for i in (0, 1)] + \
+                  [statistics.median(r[i] for r in split) for i in range(4)]
+            print(f'{os.path.basename(path):28s} {tree[-24:]:24s} {med[0]:10.3f} {med[1]:10.3f} '
+                  f'{med[2]:6.3f} {med[3]:6.3f} {med[4]:10.3f} {med[5]:9.3f} {int(total[0][4]):>11d}')
+
+
 def main(argv: list[str]) -> int:
+    if len(argv) > 2 and argv[1] == 'time':
+        args, trees, repeat = argv[2:], [], 3
+        while '--tree' in args:
+            k = args.index('--tree')
+            trees.append(os.path.abspath(args[k + 1]))
+            args = args[:k] + args[k + 2:]
+        if '--repeat' in args:
+            k = args.index('--repeat')
+            repeat = int(args[k + 1])
+            args = args[:k] + args[k + 2:]
+        time_reads(args, trees or [os.path.dirname(os.path.dirname(os.path.abspath(__file__)))], repeat)
+        return 0
     tris = 100_000
     if '--tris' in argv:
         k = argv.index('--tris')

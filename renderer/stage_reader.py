@@ -96,7 +96,7 @@ def rotate_x(degrees: float) -> np.ndarray:
 class _Shape:
     """A converted Mesh/Sphere and what it needs for per-placement material resolution."""
     record: Union[Mesh, Sphere]
-    binding_path: Sdf.Path          # gprim (or GeomSubset) path in the container's namespace
+    binding_path: str               # gprim (or GeomSubset) path in the container's namespace
     explicit: bool                  # its purpose is authored inside the container
 
 
@@ -195,7 +195,7 @@ class _Reader:
             except (Tf.ErrorException, TypeError, ValueError) as exc:     # malformed attribute values
                 self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} ({_first_line(exc)})')
                 continue
-            shapes += [_Shape(r, Sdf.Path(r.path), purpose != INHERIT) for r in records]
+            shapes += [_Shape(r, str(r.path), purpose != INHERIT) for r in records]
         # Container.gprims order: meshes first, then spheres
         return sorted(shapes, key=lambda s: isinstance(s.record, Sphere))
 
@@ -220,7 +220,8 @@ class _Reader:
                 if sel.any() and subset:
                     idx = np.flatnonzero(sel)
                     rows.append((n, variant, subset, matrices[idx], maps[idx], [labels[i] for i in idx]))
-        sets = self._material_sets(graph, rows)
+        needs = graph.needs_resolution()
+        sets = self._material_sets(graph, rows, needs)
 
         containers, parts = [], []
         set_index: dict[tuple, int] = {}
@@ -228,10 +229,22 @@ class _Reader:
             containers.append(Container(key=graph.nodes[n].key + variant,
                                         meshes=[s.record for s in subset if isinstance(s.record, Mesh)],
                                         spheres=[s.record for s in subset if isinstance(s.record, Sphere)]))
-            unique, inverse = np.unique(maps, return_inverse=True)
-            ids = np.array([set_index.setdefault(sets[(n, variant, int(u))], len(set_index)) for u in unique],
-                           np.int32)
-            parts.append((np.full(len(matrices), len(containers) - 1, np.int32), matrices, ids[inverse], labels))
+            # placements whose map needs no resolution use the container's own materials; sets
+            # are numbered in the order of their first map id
+            resolve = needs[maps]
+            ids = np.empty(len(maps), np.int32)
+            unique, inverse = np.unique(maps[resolve], return_inverse=True)
+            default = int(maps[~resolve].min()) if not resolve.all() else None
+            numbers = []
+            for u in unique.tolist():
+                if default is not None and default < u:
+                    ids[~resolve] = set_index.setdefault(tuple(s.record.material for s in subset), len(set_index))
+                    default = None
+                numbers.append(set_index.setdefault(sets[(n, variant, u)], len(set_index)))
+            if default is not None:
+                ids[~resolve] = set_index.setdefault(tuple(s.record.material for s in subset), len(set_index))
+            ids[resolve] = np.array(numbers, np.int32)[inverse]
+            parts.append((np.full(len(matrices), len(containers) - 1, np.int32), matrices, ids, labels))
         k = len(next(iter(placed.values())).matrices[0][0]) if placed else 1
         instances = Instances(
             container=np.concatenate([p[0] for p in parts]) if parts else np.zeros(0, np.int32),
@@ -240,42 +253,76 @@ class _Reader:
             material_sets=list(set_index), paths=[x for p in parts for x in p[3]])
         return containers, instances
 
-    def _material_sets(self, graph: InstanceGraph, rows) -> dict[tuple, tuple]:
-        """Material index per shape for each (node, variant, namespace map) in use.
+    def _material_sets(self, graph: InstanceGraph, rows, needs: np.ndarray) -> dict[tuple, tuple]:
+        """Sets each shape's own material (the container's default) and returns the material
+        index per shape for each (node, variant, namespace map) that needs resolution (`needs`:
+        per map id).
 
-        Shapes resolve on their own prims (the container's default); placements whose map is
-        marked as needing resolution resolve on the composed-stage paths (instance proxies), all
-        in one `ComputeBoundMaterials` call."""
-        queries: list[tuple] = []                           # (node, map id or None, shape index)
-        prims: list[Usd.Prim] = []
+        Shapes resolve on their own prims; placements whose map is marked as needing resolution
+        resolve on the composed-stage paths (instance proxies) with `ComputeBoundMaterials`.
+        Instances that the graph gives equal binding keys (same prototype, parent and own direct
+        bindings) share the result of the first of them when it bound only materials outside
+        that instance (a material inside an instance is a different prim per instance): 10^4
+        instances overriding the binding the same way cost one query, not 10^4."""
+        entries = []                     # (key (node, map id or None, binding path), stage path, group)
         seen = set()
+        resolving = {}
+        rep_of: dict[tuple, int] = {}    # (node, binding key) -> first map id with that key
         for (n, variant, subset, _, maps, _) in rows:
-            for mi in [None] + [int(u) for u in np.unique(maps) if graph.maps[int(u)][2]]:
+            ids = np.unique(maps[needs[maps]]).tolist()
+            resolving[(n, variant)] = (subset, ids)
+            for mi in [None] + ids:
+                group = None
+                if mi is not None and not graph.collection_bindings:
+                    src, dst, _, bkey = graph.maps[mi]
+                    if bkey is not None and src == graph.nodes[n].key:
+                        group = (n, bkey)
+                        rep_of.setdefault(group, mi)
                 for s in subset:
                     key = (n, mi, s.binding_path)
                     if key in seen:
                         continue
                     seen.add(key)
                     path = s.binding_path if mi is None else graph._map_path(mi, s.binding_path)
-                    prim = self.stage.GetPrimAtPath(path)
-                    if prim:
-                        queries.append(key)
-                        prims.append(prim)
-        bound, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials(prims, UsdShade.Tokens.full) \
-            if prims else ([], [])
+                    entries.append((key, path, group))
+
+        def compute(selected) -> dict:
+            found = [(key, prim) for key, prim in ((e[0], self.stage.GetPrimAtPath(e[1])) for e in selected) if prim]
+            bound, _ = UsdShade.MaterialBindingAPI.ComputeBoundMaterials([p for _, p in found], UsdShade.Tokens.full) \
+                if found else ([], [])
+            return {key: (prim, mat) for (key, prim), mat in zip(found, bound)}
+
+        # representatives first; a group shares their results unless one bound a material inside it
+        is_rep = [g is not None and rep_of[g] == e[0][1] for e in entries for g in (e[2],)]
+        result = compute([e for e, r in zip(entries, is_rep) if r])
+        private = set()                  # groups whose representative bound a material inside itself
+        for (key, path, group), r in zip(entries, is_rep):
+            if r and key in result:
+                mat = result[key][1]
+                inside = graph.maps[key[1]][1]
+                if mat and (str(mat.GetPath()) + '/').startswith(inside + '/'):
+                    private.add(group)
+        shared = [group is not None and group not in private and not r for (_, _, group), r in zip(entries, is_rep)]
+        result.update(compute([e for e, r, sh in zip(entries, is_rep, shared) if not r and not sh]))
+
         index = {}
-        for key, prim, mat in zip(queries, prims, bound):
-            found = self.materials.bound(mat) if mat else None
-            index[key] = found if found is not None else self.materials.fallback(prim)
+        for (key, path, group), sh in zip(entries, shared):
+            if sh:                       # same result as the representative (resolved earlier in this order)
+                rep = (key[0], rep_of[group], key[2])
+                if rep in index:
+                    index[key] = index[rep]
+                continue
+            if key in result:
+                prim, mat = result[key]
+                found = self.materials.bound(mat) if mat else None
+                index[key] = found if found is not None else self.materials.fallback(prim)
         for (n, variant, subset, _, _, _) in rows:
             for s in subset:
                 s.record.material = index[(n, None, s.binding_path)]
         sets = {}
-        for (n, variant, subset, _, maps, _) in rows:
-            for u in np.unique(maps):
-                mi = int(u)
-                sets[(n, variant, mi)] = tuple(
-                    index.get((n, mi, s.binding_path), s.record.material) for s in subset)
+        for (n, variant), (subset, ids) in resolving.items():
+            for mi in ids:
+                sets[(n, variant, mi)] = tuple(index.get((n, mi, s.binding_path), s.record.material) for s in subset)
         return sets
 
     # ------------------------------------------------------------------ lights

@@ -22,6 +22,13 @@ resolution needs; it is only marked as needing resolution when some binding or d
 authored on the way (an instance prim or its ancestors), so that 10^5 plain instances cost
 nothing extra.
 
+Load cost (usd-core has no batch API for composed per-prim values): a native instance costs one
+`GetAuthoredPropertyNames`, one `GetTypeName`, one dict lookup for its prototype and one
+`XformCache.GetLocalToWorldTransform` (its children, names and instance flags come in
+per-parent batches), ~15-25 us in all; everything after that is numpy over all placements.
+An instance that authors a material binding also reads that binding (`_binding_key`) so that
+siblings overriding it the same way share one `ComputeBoundMaterials` query.
+
 Rules implemented (see /work/shared/usd-mapping.md): invisible prims prune their subtree;
 purpose is the prim's own authored value, else the nearest ancestor's, else `default`; only
 `default` and `render` are rendered; a PointInstancer's purpose does not propagate into its
@@ -35,7 +42,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, Vt
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from renderer.errors import SceneError
 from renderer.usd_geometry import converter_for
@@ -74,15 +81,16 @@ def _kind(prim: Usd.Prim, cache: dict) -> str:
     return cache[name]
 
 
-@dataclass
+@dataclass(slots=True)
 class Ref:
     """A placement of another container inside this one."""
     child: int                     # node index
     prim: Optional[Usd.Prim]       # whose transform places it (None: identity)
     purpose: int
-    label: Sdf.Path                # instance / gprim path in this container's namespace
-    prototype: Optional[Sdf.Path]  # native prototype path: the child's paths map under `label`
+    label: str                     # instance / gprim path in this container's namespace
+    prototype: Optional[str]       # native prototype path: the child's paths map under `label`
     needs_binding: bool            # bindings/displayColor authored at or above the placing prim
+    binding_key: Optional[tuple] = None   # instances with equal keys resolve materials alike
 
 
 @dataclass
@@ -133,10 +141,15 @@ class InstanceGraph:
         self.settings: list[Usd.Prim] = []
         self.animated = any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers())
         self.xform_prims: list[Usd.Prim] = []   # prims with authored xformOps (animated stages only)
-        self.maps: list[tuple[Sdf.Path, Sdf.Path, bool]] = [
-            (Sdf.Path.absoluteRootPath, Sdf.Path.absoluteRootPath, False)]
+        # namespace maps: (prefix in the container, prefix on the composed stage, needs material
+        # resolution, Ref.binding_key for instances placed directly on the stage)
+        self.maps: list[tuple[str, str, bool, Optional[tuple]]] = [('/', '/', False, None)]
+        self.collection_bindings = False     # some walked prim authors a collection-based binding
         self._kinds: dict = {}
-        self._prototypes: dict[Sdf.Path, int] = {}
+        self._prototypes: dict[Usd.Prim, tuple[int, str]] = {}
+        self._prototype_paths: dict[str, int] = {}
+        self._instance_table: Optional[dict] = None    # instance prim -> index into _table_protos
+        self._table_protos: list = []
 
     # ------------------------------------------------------------------ walk
     def build(self) -> None:
@@ -151,60 +164,133 @@ class InstanceGraph:
         self._walk(node, include_root)
         return self.index[key]
 
-    def _prototype_node(self, proto: Usd.Prim) -> int:
-        path = proto.GetPath()
-        n = self._prototypes.get(path)
-        if n is None:
-            n = self._prototypes[path] = self._node(str(path), proto, None, include_root=False)
-        return n
+    def _prototype_of(self, instance: Usd.Prim) -> tuple[int, str]:
+        """(node index, prototype path) of an instance prim.  The instance -> prototype table is
+        built once from `GetPrototypes()`/`GetInstances()` (batch calls): one prim hash per
+        instance instead of a `GetPrototype()` call and a second hash of its result."""
+        if self._instance_table is None:
+            protos = self.stage.GetPrototypes()
+            self._instance_table = {i: k for k, proto in enumerate(protos) for i in proto.GetInstances()}
+            self._table_protos = [(proto, None) for proto in protos]
+        k = self._instance_table.get(instance)
+        if k is None:                                  # not expected; ask the prim itself
+            return self._prototype_node(instance.GetPrototype())
+        proto, found = self._table_protos[k]
+        if found is None:
+            found = self._prototype_node(proto)
+            self._table_protos[k] = (proto, found)
+        return found
+
+    def _prototype_node(self, proto: Usd.Prim) -> tuple[int, str]:
+        """(node index, prototype path) of a native prototype, cached by prim."""
+        found = self._prototypes.get(proto)
+        if found is None:
+            path = str(proto.GetPath())
+            n = self._prototype_paths.get(path)
+            if n is None:
+                n = self._prototype_paths[path] = self._node(path, proto, None, include_root=False)
+            found = self._prototypes[proto] = (n, path)
+        return found
 
     def _walk(self, node: Node, include_root: bool) -> None:
+        """Visit the container's prims in `Usd.PrimRange(root, predicate)` order (depth first,
+        pruned at instances, PointInstancers and invisible prims) with as few pxr calls per prim
+        as usd-core allows: the children of a prim come in one batch (`GetFilteredChildren`,
+        their names and the names of those that are instances: three calls per parent, none per
+        child), paths are strings built from the names, and a prim costs one
+        `GetAuthoredPropertyNames` and one `GetTypeName`; an instance's prototype comes from a
+        table built with `GetPrototypes`/`GetInstances` (one dict lookup).  No per-prim state
+        dict, no `Sdf.Path` objects."""
         t, root, is_root = self.time, node.root, node.key == '/'
-        it = iter(Usd.PrimRange(root, PI_PROTOTYPE_PREDICATE if include_root else Usd.PrimDefaultPredicate))
-        # (purpose, binding-authored) of the prims whose children are walked, by path
-        state = {root.GetPath(): (INHERIT, False)}
-        for prim in it:
-            if prim == root and not include_root:
-                continue
-            path = prim.GetPath()
-            p, b = state.get(path.GetParentPath(), (INHERIT, False))
-            names = prim.GetAuthoredPropertyNames()
-            if names:
-                imageable = ('visibility' in names or 'purpose' in names) and prim.IsA(UsdGeom.Imageable)
-                if imageable and 'visibility' in names and \
-                        prim.GetAttribute('visibility').Get(t) == UsdGeom.Tokens.invisible:
-                    it.PruneChildren()
+        pred = PI_PROTOTYPE_PREDICATE if include_root else Usd.PrimDefaultPredicate
+        if not pred(root):                       # what Usd.PrimRange(root, pred) yields: nothing
+            return
+        inst_pred = pred & Usd.PrimIsInstance
+        kinds, animated, refs, gprims = self._kinds, self.animated, node.refs, node.gprims
+        frames = []            # (children iterator, path prefix, instance names, purpose, binding authored)
+
+        def push(parent: Usd.Prim, path: str, p: int, b: bool) -> bool:
+            kids = parent.GetFilteredChildren(pred)
+            if not kids:
+                return False
+            names = parent.GetFilteredChildrenNames(pred)
+            instances = set(parent.GetFilteredChildrenNames(inst_pred))
+            frames.append((iter(zip(kids, names)), '/' if path == '/' else path + '/', instances, p, b))
+            return True
+
+        if include_root:
+            parent = str(root.GetPath().GetParentPath())
+            frames.append((iter([(root, root.GetName())]), '/' if parent == '/' else parent + '/',
+                           {root.GetName()} if root.IsInstance() else set(), INHERIT, False))
+        else:
+            push(root, str(root.GetPath()), INHERIT, False)
+        while frames:
+            it, prefix, instances, pp, pb = frames[-1]
+            for prim, name in it:
+                p, b = pp, pb
+                names = prim.GetAuthoredPropertyNames()
+                if names:
+                    imageable = ('visibility' in names or 'purpose' in names) and prim.IsA(UsdGeom.Imageable)
+                    if imageable and 'visibility' in names and \
+                            prim.GetAttribute('visibility').Get(t) == UsdGeom.Tokens.invisible:
+                        continue
+                    if imageable and 'purpose' in names:
+                        p = PURPOSES.get(prim.GetAttribute('purpose').Get(t), p)
+                    joined = ' '.join(names)
+                    if 'material:binding' in joined:
+                        b = True
+                        if 'material:binding:collection' in joined:
+                            self.collection_bindings = True
+                    elif 'primvars:displayColor' in joined:
+                        b = True
+                    if animated and 'xformOp' in joined:
+                        self.xform_prims.append(prim)
+                kind = kinds.get(prim.GetTypeName()) or _kind(prim, kinds)
+                if name in instances:
+                    if kind == 'gprim' and p not in (2, 3):
+                        gprims.append((prim, p))
+                    child, proto_path = self._prototype_of(prim)
+                    refs.append(Ref(child, prim, p, prefix + name, proto_path, b,
+                                    self._binding_key(prim, names, prefix) if b and is_root else None))
                     continue
-                if imageable and 'purpose' in names:
-                    p = PURPOSES.get(prim.GetAttribute('purpose').Get(t), p)
-                joined = ' '.join(names)
-                b = b or 'material:binding' in joined or 'primvars:displayColor' in joined
-                if self.animated and 'xformOp' in joined:
-                    self.xform_prims.append(prim)
-            kind = _kind(prim, self._kinds)
-            if prim.IsInstance():
-                if kind == 'gprim' and p not in (2, 3):
-                    node.gprims.append((prim, p))
-                proto = prim.GetPrototype()
-                node.refs.append(Ref(self._prototype_node(proto), prim, p, path, proto.GetPath(), b))
-                it.PruneChildren()
-                continue
-            if kind == 'pi':
-                node.instancers.append(self._instancer(prim))
-                it.PruneChildren()
-                continue
-            state[path] = (p, b)
-            if kind == 'gprim':
-                if p not in (2, 3):
-                    node.gprims.append((prim, p))
-            elif kind == 'light':
-                node.lights.append(prim)
-            elif kind == 'unsupported':
-                self.skipped.append(f'{path}: {prim.GetTypeName()} is not supported')
-            elif kind == 'camera' and is_root:
-                self.cameras.append(prim)
-            elif kind == 'settings' and is_root:
-                self.settings.append(prim)
+                if kind == 'pi':
+                    node.instancers.append(self._instancer(prim))
+                    continue
+                if kind == 'gprim':
+                    if p not in (2, 3):
+                        gprims.append((prim, p))
+                elif kind == 'light':
+                    node.lights.append(prim)
+                elif kind == 'unsupported':
+                    self.skipped.append(f'{prefix}{name}: {prim.GetTypeName()} is not supported')
+                elif kind == 'camera' and is_root:
+                    self.cameras.append(prim)
+                elif kind == 'settings' and is_root:
+                    self.settings.append(prim)
+                if push(prim, prefix + name, p, b):
+                    break                        # depth first: the children before the next sibling
+            else:
+                frames.pop()
+
+    @staticmethod
+    def _binding_key(prim: Usd.Prim, names: list, parent: str) -> Optional[tuple]:
+        """For an instance on the stage (not inside a prototype) whose materials need resolving:
+        a key such that instances of the same prototype with equal keys bind the same materials
+        in every gprim -- the parent path (siblings share all ancestor bindings) and the
+        instance's own direct bindings (targets, strength) and MaterialBindingAPI.  None
+        (resolve it on its own) when it authors displayColor or a collection-based binding,
+        whose effect depends on the instance's path.  Only used when no walked prim authors a
+        collection-based binding."""
+        own = []
+        for name in names:
+            if name.startswith('material:binding'):
+                if name.startswith('material:binding:collection'):
+                    return None
+                rel = prim.GetRelationship(name)
+                own.append((name, tuple(rel.GetTargets()), UsdShade.MaterialBindingAPI.GetMaterialBindingStrength(rel)))
+            elif name == 'primvars:displayColor' or name.startswith('primvars:displayColor:'):
+                return None
+        return parent, tuple(own), prim.HasAPI(UsdShade.MaterialBindingAPI)
 
     def _instancer(self, prim: Usd.Prim) -> Instancer:
         children = []
@@ -237,7 +323,8 @@ class InstanceGraph:
         if _kind(r, self._kinds) == 'gprim' and own not in (2, 3):
             node.gprims.append((r, own))
         proto = r.GetPrototype()
-        node.refs.append(Ref(self._prototype_node(proto), None, own, r.GetPath(), proto.GetPath(), True))
+        child, proto_path = self._prototype_node(proto)
+        node.refs.append(Ref(child, None, own, str(r.GetPath()), proto_path, True))
         return self.index[key]
 
     # ------------------------------------------------------------------ motion
@@ -343,7 +430,7 @@ class InstanceGraph:
                 rigid.gprim_xf = np.broadcast_to(np.eye(4), (1, *node.gprim_xf.shape[1:])).copy()
                 rigid.ref_xf = rigid.light_xf = np.zeros((0, *node.gprim_xf.shape[1:]))
                 self.nodes.append(rigid)
-                node.refs.append(Ref(self.index[key], prim, purpose, prim.GetPath(), None, False))
+                node.refs.append(Ref(self.index[key], prim, purpose, str(prim.GetPath()), None, False))
                 node.ref_xf = np.concatenate([node.ref_xf, node.gprim_xf[i:i + 1]])
             node.gprims = [node.gprims[i] for i in keep]
             node.gprim_xf = node.gprim_xf[keep]
@@ -393,7 +480,8 @@ class InstanceGraph:
         for inst, (child, rel) in zip(node.instancers, node.pi_rows):
             if len(child):                  # PI instances inherit the parent's namespace map
                 k = len(child)
-                lab = [str(self._map_path(int(mi), inst.prim.GetPath())) for mi in maps]
+                own_path = str(inst.prim.GetPath())
+                lab = [self._map_path(mi, own_path) for mi in maps.tolist()]
                 groups.append((np.tile(child, m), (world[:, None] @ rel[None]).reshape(-1, *rel.shape[1:]),
                                np.zeros(m * k, np.int8), np.repeat(maps, k), [x for x in lab for _ in range(k)]))
         if not groups:
@@ -405,23 +493,41 @@ class InstanceGraph:
             sel = np.flatnonzero(child == c)
             self._visit(int(c), mats[sel], pur[sel], mps[sel], [labs[i] for i in sel], out, depth + 1)
 
-    def _map_path(self, map_id: int, path: Sdf.Path) -> Sdf.Path:
-        src, dst, _ = self.maps[map_id]
-        return path if src == dst else path.ReplacePrefix(src, dst)
+    def _map_path(self, map_id: int, path: str) -> str:
+        """`path` (a prim path string in a container's namespace) as it reads on the composed
+        stage under namespace map `map_id` (Sdf.Path.ReplacePrefix on strings)."""
+        src, dst, _, _ = self.maps[map_id]
+        if src == dst:
+            return path
+        if path == src:
+            return dst
+        return dst + path[len(src):] if path.startswith(src + '/') else path
+
+    def needs_resolution(self) -> np.ndarray:
+        """Per namespace map: bindings or displayColor authored on the way (bool array)."""
+        return np.fromiter((m[2] for m in self.maps), bool, len(self.maps))
 
     def _descend(self, maps: np.ndarray, refs: list[Ref]) -> tuple[np.ndarray, list[str]]:
-        """Namespace maps and labels for every (parent placement, reference) pair: a native
-        instance starts a new map (its prototype read under the instance's composed path);
-        other references keep the parent's."""
-        new, labels = [], []
-        for mi in maps.tolist():
-            src, dst, needs = self.maps[mi]
-            for r in refs:
-                path = r.label if src == dst else r.label.ReplacePrefix(src, dst)
-                if r.prototype is None:
-                    new.append(mi)
+        """Namespace maps and labels for every (parent placement, reference) pair, row =
+        parent * len(refs) + ref: a native instance starts a new map (its prototype read under
+        the instance's composed path); other references keep the parent's."""
+        labels0 = [r.label for r in refs]
+        native = [r for r in refs if r.prototype is not None]
+        is_native = np.array([r.prototype is not None for r in refs], bool)
+        new, labels = np.empty((len(maps), len(refs)), np.int64), []
+        for row, mi in enumerate(maps.tolist()):
+            src, dst, needs, _ = self.maps[mi]
+            top = mi == 0                             # placed directly on the stage
+            labs = labels0 if src == dst else [self._map_path(mi, x) for x in labels0]
+            labels += labs
+            new[row] = mi
+            if native:
+                start = len(self.maps)
+                if len(native) == len(refs):
+                    self.maps += [(r.prototype, lab, needs or r.needs_binding, r.binding_key if top else None)
+                                  for r, lab in zip(refs, labs)]
                 else:
-                    self.maps.append((r.prototype, path, needs or r.needs_binding))
-                    new.append(len(self.maps) - 1)
-                labels.append(str(path))
-        return np.array(new, np.int64), labels
+                    self.maps += [(r.prototype, lab, needs or r.needs_binding, r.binding_key if top else None)
+                                  for r, lab in zip(refs, labs) if r.prototype is not None]
+                new[row, is_native] = np.arange(start, len(self.maps))
+        return new.ravel(), labels

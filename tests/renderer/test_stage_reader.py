@@ -489,6 +489,124 @@ def test_default_camera_and_lights_when_missing():
     assert any('default camera' in w for w in desc.warnings)
 
 
+def _bound_material_paths(stage, desc) -> dict[tuple[str, str], str]:
+    """(placement label, gprim path in its container) -> path of the material the reader uses,
+    a material inside a prototype read at the placement's path (the reader keeps the prototype's
+    own binding for instances that bind nothing themselves: the same material)."""
+    inst, out = desc.instances, {}
+    for r in range(inst.count):
+        container = desc.containers[inst.container[r]]
+        for g, m in zip(container.gprims, inst.material_sets[inst.material_set[r]]):
+            path = desc.materials[m if m >= 0 else g.material].path
+            if container.key.startswith('/__Prototype') and path.startswith(container.key + '/'):
+                path = inst.paths[r] + path[len(container.key):]
+            out[(inst.paths[r], g.path)] = path
+    return out
+
+
+def _brute_material_paths(stage, desc) -> dict[tuple[str, str], str]:
+    """The same by `ComputeBoundMaterial` on each instance proxy (materials in these tests are
+    all bound, so no displayColor fallback)."""
+    inst, out = desc.instances, {}
+    for r in range(inst.count):
+        container = desc.containers[inst.container[r]]
+        for g in container.gprims:
+            proxy = inst.paths[r] + g.path[len(container.key):] if container.key.startswith('/__Prototype') \
+                else g.path
+            mat, _ = UsdShade.MaterialBindingAPI(stage.GetPrimAtPath(proxy)).ComputeBoundMaterial(
+                UsdShade.Tokens.full)
+            out[(inst.paths[r], g.path)] = str(mat.GetPath())
+    return out
+
+
+def _many_instances_stage(moving: bool = False) -> Usd.Stage:
+    """Groups of sibling instances of two prototypes (one holding its own material, one nesting
+    instances of the first) with invisible / proxy / render purpose / own and inherited
+    bindings of both strengths / inactive instances / an instance that is itself a Cube, and
+    optionally instances moving over the camera shutter."""
+    stage = _stage()
+    looks = {c: _preview_material(stage, f'/World/Looks/{c}', rgb)
+             for c, rgb in (('Grey', (.5, .5, .5)), ('Red', (1, 0, 0)), ('Blue', (0, 0, 1)))}
+    UsdGeom.Xform.Define(stage, '/Protos/A')
+    UsdGeom.Sphere.Define(stage, '/Protos/A/Ball')
+    cube = UsdGeom.Cube.Define(stage, '/Protos/A/Box')
+    UsdShade.MaterialBindingAPI.Apply(stage.GetPrimAtPath('/Protos/A/Ball')).Bind(looks['Grey'])
+    inner = _preview_material(stage, '/Protos/A/Looks/Inner', (0, 1, 0))    # a material per instance
+    UsdShade.MaterialBindingAPI.Apply(cube.GetPrim()).Bind(inner)
+    UsdGeom.Xform.Define(stage, '/Protos/Nest')
+    for i in range(3):
+        x = UsdGeom.Xform.Define(stage, f'/Protos/Nest/N{i}')
+        x.GetPrim().GetReferences().AddInternalReference('/Protos/A')
+        x.GetPrim().SetInstanceable(True)
+        x.AddTranslateOp().Set(Gf.Vec3d(i, 0, 0))
+    stage.GetPrimAtPath('/Protos').SetSpecifier(Sdf.SpecifierOver)
+    if moving:
+        cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+        cam.CreateShutterOpenAttr(-0.5)
+        cam.CreateShutterCloseAttr(0.5)
+    rng = np.random.default_rng(5)
+    for g in range(3):
+        group = UsdGeom.Xform.Define(stage, f'/World/G{g}')
+        group.AddTranslateOp().Set(Gf.Vec3d(0, 5 * g, 0))
+        for i in range(30):
+            x = UsdGeom.Xform.Define(stage, f'/World/G{g}/I{i}')
+            prim = x.GetPrim()
+            prim.GetReferences().AddInternalReference('/Protos/A' if i % 4 else '/Protos/Nest')
+            prim.SetInstanceable(True)
+            op = x.MakeMatrixXform()
+            for t in ((-1, 0, 1) if moving and i % 3 == 0 else (0,)):
+                op.Set(Gf.Matrix4d().SetTranslate(Gf.Vec3d(*rng.uniform(-9, 9, 3))), Usd.TimeCode(t))
+            k = i % 8
+            if k == 1:
+                x.CreateVisibilityAttr('invisible')
+            elif k == 2:
+                x.CreatePurposeAttr('proxy')
+            elif k == 3:
+                x.CreatePurposeAttr('render')
+            elif k in (4, 5):
+                UsdShade.MaterialBindingAPI.Apply(prim).Bind(
+                    looks['Red'], UsdShade.Tokens.strongerThanDescendants if k == 4 else
+                    UsdShade.Tokens.weakerThanDescendants)
+            elif k == 6:
+                UsdShade.MaterialBindingAPI.Apply(prim).Bind(looks['Blue'], UsdShade.Tokens.strongerThanDescendants)
+            if i == 29:
+                prim.SetActive(False)
+        if g == 1:
+            group.CreatePurposeAttr('render')
+        if g == 2:
+            UsdShade.MaterialBindingAPI.Apply(group.GetPrim()).Bind(looks['Blue'],
+                                                                  UsdShade.Tokens.strongerThanDescendants)
+    box = UsdGeom.Cube.Define(stage, '/World/CubeInstance')         # an instance that is a gprim too
+    box.GetPrim().GetReferences().AddInternalReference('/Protos/A')
+    box.GetPrim().SetInstanceable(True)
+    UsdShade.MaterialBindingAPI.Apply(box.GetPrim()).Bind(looks['Red'])
+    return stage
+
+
+@pytest.mark.parametrize('moving', [False, True])
+def test_many_sibling_instances_match_brute_force(moving):
+    """The batched walk (children in batches, instance -> prototype table) and the shared
+    material resolution of instances with equal bindings give what a brute-force expansion and
+    per-proxy `ComputeBoundMaterial` give: placements at every motion sample, materials per
+    placement, materials inside instances kept per instance."""
+    stage = _many_instances_stage(moving)
+    desc = read_stage(stage)
+    assert_same_placements(stage, desc)
+    assert _bound_material_paths(stage, desc) == _brute_material_paths(stage, desc)
+    # instances binding Red weaker than the prototype's own Inner: resolved per instance (the
+    # material is inside each instance), not shared from the first one
+    inner = {m.path for m in desc.materials if m.path.endswith('/Looks/Inner') and not m.path.startswith('/__')}
+    assert len(inner) >= 6
+    if moving:
+        assert desc.shutter_times == (-0.5, 0.0, 0.5)
+        for k, t in enumerate(desc.shutter_times):
+            xc = UsdGeom.XformCache(Usd.TimeCode(t))
+            for r, path in enumerate(desc.instances.paths):
+                if path.count('/') == 3 and desc.containers[desc.instances.container[r]].key.startswith('/__'):
+                    want = np.array(xc.GetLocalToWorldTransform(stage.GetPrimAtPath(path))).T
+                    np.testing.assert_allclose(desc.instances.matrices[r, k], want, atol=1e-12)
+
+
 def test_motion_samples_and_moving_plain_gprim():
     stage = _stage()
     cam = UsdGeom.Camera.Define(stage, '/World/Cam')
