@@ -82,6 +82,34 @@ def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
 
 
 @nb.njit(**SHADING_JIT)
+def render_pixel(S, scene, cam, x, y, width, height, s0, s1, spp, sampler, filt, seed, max_depth,
+                 use_lens, use_time, f, u, m, m32, counts, rec, tile, accum):
+    """Add samples [s0, s1) of pixel (x, y) to `accum`.  One call per pixel rather than per sample:
+    a call passes the scene tables as ~190 scalar arguments, and `trace_path` is inlined here
+    (measured, single thread: 15-40 % less time per sample than calling it per sample)."""
+    pixel = y * width + x
+    for index in range(s0, s1):
+        a, b = sample_2d(sampler, seed, pixel, index, spp, DIM_PIXEL)
+        fdx, fdy = filter_offset(filt, a, b)
+        lu = 0.5
+        lv = 0.5
+        if use_lens:
+            lu, lv = sample_2d(sampler, seed, pixel, index, spp, DIM_LENS)
+        time = 0.0
+        if use_time:
+            time = sample_1d(sampler, seed, pixel, index, spp, DIM_TIME)
+        o, d = generate_ray(cam, (x + 0.5 + fdx) / width, (y + 0.5 + fdy) / height, lu, lv, time)
+        r, g, bl = trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth,
+                              f, u, m, m32, counts, rec, tile)
+        if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
+            accum[y, x, 0] += r
+            accum[y, x, 1] += g
+            accum[y, x, 2] += bl
+        else:
+            counts[BAD_SAMPLES] += 1
+
+
+@nb.njit(**SHADING_JIT, inline='always')
 def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts,
                rec, tile):
     """Radiance arriving at the camera along the ray (o, d) at shutter time `time`.
@@ -270,25 +298,7 @@ def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, 
         y0 = (tile // ntx) * TILE
         for y in range(y0, min(y0 + TILE, height)):
             for x in range(x0, min(x0 + TILE, width)):
-                pixel = y * width + x
-                for s in range(s0, s1):
-                    a, b = sample_2d(sampler, seed, pixel, s, spp, DIM_PIXEL)
-                    fdx, fdy = filter_offset(filt, a, b)
-                    lu = 0.5
-                    lv = 0.5
-                    if use_lens:
-                        lu, lv = sample_2d(sampler, seed, pixel, s, spp, DIM_LENS)
-                    time = 0.0
-                    if use_time:
-                        time = sample_1d(sampler, seed, pixel, s, spp, DIM_TIME)
-                    o, d = generate_ray(cam, (x + 0.5 + fdx) / width, (y + 0.5 + fdy) / height, lu, lv, time)
-                    r, g, bl = trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, s, spp,
-                                          max_depth, f, u, m, m32, counts, rec, tile)
-                    if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
-                        accum[y, x, 0] += r
-                        accum[y, x, 1] += g
-                        accum[y, x, 2] += bl
-                    else:
-                        counts[BAD_SAMPLES] += 1
+                render_pixel(S, scene, cam, x, y, width, height, s0, s1, spp, sampler, filt, seed, max_depth,
+                             use_lens, use_time, f, u, m, m32, counts, rec, tile, accum)
         for k in range(N_COUNTERS):
             counters[tile, k] += counts[k]
