@@ -177,6 +177,9 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
         save_checkpoint(res)
     elif ckpt_path.exists() and res.film.spp >= resolved.spp:
         ckpt_path.unlink()
+    if not quiet and res.stats.kernel_seconds > 2.0:
+        click.echo(f'rtc: compiled the rendering kernels in {res.stats.kernel_seconds:.0f} s '
+                   f'(once: later runs load them from the cache)', err=True)
     if not quiet:
         click.echo(summary_line(res.stats.seconds, res.film.spp, res.stats.rays, resolved.width, resolved.height),
                    err=True)
