@@ -11,8 +11,8 @@ resolves in every process - so cached kernels load.  The ``rtc_emb4_`` prefix ke
 apart from any other Embree in the process (e.g. Mitsuba's libembree3).  A module with cached
 kernels that use these functions imports this module, which registers the symbols before numba
 links any cached code.
-Numba invalidates a cache entry only when the kernel's own source file changes: after editing the
-inline helpers below, clear the ``__pycache__/*.nbi/*.nbc`` files of kernels in other modules.
+Numba invalidates a cache entry only when the kernel's own source file changes; `renderer/__init__.py`
+therefore keys the whole cache directory on a hash of every renderer source file.
 
 Single rays (RTCRayHit, 96 B, 16-byte aligned)
 ----------------------------------------------
