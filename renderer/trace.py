@@ -236,6 +236,18 @@ def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded):
                                         dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
 
 
+@numba.njit(inline="always")
+def _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time):
+    """Fill a 16-ray packet with rays [first, min(first + 16, end)); returns the number of lanes."""
+    lanes = min(PACKET, end - first)
+    valid[:] = 0
+    for j in range(lanes):
+        r = first + j
+        set_ray16(valid, f, u, j, origins[r, 0], origins[r, 1], origins[r, 2],
+                  dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
+    return lanes
+
+
 @numba.njit(parallel=True, nogil=True, cache=True)
 def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
     """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
@@ -247,12 +259,7 @@ def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
         valid, f, u = new_packet16()
         end = min(n, (item + 1) * CHUNK)
         for first in range(item * CHUNK, end, PACKET):
-            lanes = min(PACKET, end - first)
-            valid[:] = 0
-            for j in range(lanes):
-                r = first + j
-                set_ray16(valid, f, u, j, origins[r, 0], origins[r, 1], origins[r, 2],
-                          dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
+            lanes = _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time)
             intersect16(scene, valid, f)
             for j in range(lanes):
                 r = first + j
@@ -274,12 +281,7 @@ def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded):
         valid, f, u = new_packet16()
         end = min(n, (item + 1) * CHUNK)
         for first in range(item * CHUNK, end, PACKET):
-            lanes = min(PACKET, end - first)
-            valid[:] = 0
-            for j in range(lanes):
-                r = first + j
-                set_ray16(valid, f, u, j, origins[r, 0], origins[r, 1], origins[r, 2],
-                          dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
+            lanes = _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time)
             occluded16(scene, valid, f)
             for j in range(lanes):
                 out_occluded[first + j] = f[TFAR * PACKET + j] == -np.inf
