@@ -104,12 +104,10 @@ def phase_times(xml: Path, out: Path) -> dict[str, float]:
         bounds = world_bounds(scene, meshes)
         lap("prepare")
         plan = AssetPlan(anchor=out.parent, side_dir=f"{out.stem}_assets", meshes_inline=out.suffix != ".usda")
-        written = write_scene(scene, meshes, RenderOptions(), plan, bounds)
+        written = write_scene(scene, meshes, RenderOptions(), plan, bounds,
+                              placements_as_text=out.suffix == ".usda")
         lap("author")
-        (out.parent / plan.side_dir).mkdir(exist_ok=True)
-        for name, layer in written.side_layers.items():
-            layer.Export(str(out.parent / plan.side_dir / name))
-        written.root.Export(str(out))
+        api._export(written, out, out.parent / plan.side_dir)
         lap("write")
     return times
 

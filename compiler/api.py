@@ -104,7 +104,8 @@ def compile_file(xml_path, out_path, *, width: Optional[int] = None, height: Opt
             staged_assets.mkdir()
             _convert_environment(c, staged_assets / ENVIRONMENT_FILE)
             env = plan.side_path(ENVIRONMENT_FILE)
-        written = write_scene(c.scene, c.meshes, c.options, plan, c.bounds, env)
+        written = write_scene(c.scene, c.meshes, c.options, plan, c.bounds, env,
+                              placements_as_text=out.suffix == ".usda")
         _export(written, work / out.name, staged_assets)
         _commit(work, out, staged_assets, out.parent / side_dir)
     finally:
@@ -206,7 +207,10 @@ def _export(written: WrittenScene, main: Path, assets: Path) -> None:
         assets.mkdir(exist_ok=True)
     for name, layer in written.side_layers.items():
         _checked_export(layer, assets / name)
-    _checked_export(written.root, main)
+    if written.placements_text is None:
+        _checked_export(written.root, main)
+    else:
+        main.write_text(written.root_text(), encoding="utf-8")
 
 
 def _checked_export(layer, path: Path) -> None:

@@ -19,6 +19,7 @@ from typing import Optional
 import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
+from . import placements_text as _text
 from .obj import ObjMesh
 from .scene import (Box, Camera, Cylinder, Geometry, Light, MeshFile, Motion, Placement, Prototype,
                     Scene, Shader, Shape, Sphere, Triangle)
@@ -65,6 +66,16 @@ class AssetPlan:
 class WrittenScene:
     root: Sdf.Layer
     side_layers: dict[str, Sdf.Layer] = field(default_factory=dict)     # file name -> layer
+    #: With `placements_as_text`: the children of /World/Instances as .usda text, which the root
+    #: layer leaves empty (`placements_text.splice` puts them into its exported text).
+    placements_text: Optional[str] = None
+
+    def root_text(self) -> str:
+        """The root layer as .usda text, placements included."""
+        text = self.root.ExportToString()
+        if self.placements_text is None:
+            return text
+        return _text.splice(text, self.placements_text)
 
 
 def reference_distance(light: Light, bounds) -> float:
@@ -78,9 +89,12 @@ def reference_distance(light: Light, bounds) -> float:
 
 
 def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOptions, assets: AssetPlan,
-                bounds, environment_asset: Optional[str] = None) -> WrittenScene:
+                bounds, environment_asset: Optional[str] = None,
+                placements_as_text: bool = False) -> WrittenScene:
     """Author the scene.  `environment_asset` is the asset path of the lat-long image already
-    converted from the scene's cube map (None: no environment, the background colour applies)."""
+    converted from the scene's cube map (None: no environment, the background colour applies).
+    `placements_as_text` (for a .usda output): static placements are formatted as text
+    (`WrittenScene.placements_text`) instead of authored as specs; same file, ~10x faster."""
     layer = Sdf.Layer.CreateAnonymous("scene.usda")
     out = WrittenScene(layer)
     names = _Names()
@@ -102,7 +116,10 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
         mesh_refs = bulk.meshes(meshes, assets, out)
         bulk.shapes(scene.shapes, mesh_refs)
         bulk.prototypes(scene.used_prototypes(), mesh_refs)
-        bulk.placements(scene.placements)
+        if placements_as_text and _text.eligible(scene.placements):
+            out.placements_text = bulk.placements_as_text(scene.placements)
+        else:
+            bulk.placements(scene.placements)
     return out
 
 
@@ -514,6 +531,22 @@ class _Bulk:
             self._ops(spec, p.motion)
             if p.shader is not None:
                 self._bind(spec, p.shader, stronger=True)
+
+
+    def placements_as_text(self, placements: list[Placement]) -> Optional[str]:
+        """What `placements` authors, as .usda text for the children of an empty
+        /World/Instances (None when there are no placements)."""
+        if not placements:
+            return None
+        parent_path = str(self._root("/World/Instances", "Scope").path)
+        unique = self.names.unique
+        protos = {key: str(path) for key, path in self.proto_paths.items()}
+        return _text.placements_text(
+            placements,
+            name_of=lambda p: unique(parent_path, p.name),
+            prototype_path=lambda p: protos[id(p.prototype)],
+            material_path=lambda p: self.materials[id(p.shader)],
+            op_plan=_op_plan)
 
 
 @functools.cache
