@@ -208,6 +208,24 @@ def test_sobol_4d_pixel_lens_point():
         assert not elementary_intervals_ok(np.stack([a[:, 0], c[:, 0]], 1), m, t=1)
 
 
+@njit
+def pixel_lens_points(sampler, seed, pixel, spp, count):
+    out = np.empty((count, 4))
+    for i in range(count):
+        out[i, 0], out[i, 1], out[i, 2], out[i, 3] = S.sample_pixel_lens(sampler, seed, pixel, i, spp)
+    return out
+
+
+@pytest.mark.parametrize("sampler", ALL)
+def test_sample_pixel_lens_is_pairs_0_and_1(sampler):
+    """The fused pixel + lens call returns exactly the two `sample_2d` pairs it replaces."""
+    for pixel, seed, spp in ((0, 11, 16), (12345, 2**31 + 7, 7), (99, 0, 64)):
+        fused = pixel_lens_points(sampler, seed, pixel, spp, 3 * spp)
+        a = points_2d(sampler, seed, pixel, spp, S.DIM_PIXEL, 0, 3 * spp)
+        b = points_2d(sampler, seed, pixel, spp, S.DIM_LENS, 0, 3 * spp)
+        assert np.array_equal(fused, np.concatenate([a, b], 1))
+
+
 # --------------------------------------------------------------------------- convergence
 R_DISK = 0.35
 BUMP_1D = math.sqrt(0.08 * math.pi) * math.erf(0.5 / math.sqrt(0.08))
