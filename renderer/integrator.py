@@ -12,8 +12,9 @@ simulated (as in the course).
 
 The kernel is a megakernel: one numba-parallel loop over image tiles, each thread tracing whole
 paths on the two-level Embree scene: camera rays and first-hit shadow rays (the coherent ones) in
-16-ray packets (rtcIntersect16 / rtcOccluded16), deeper bounces with rtcIntersect1 / rtcOccluded1.  Tiles are visited in a
-scattered order so that both threads get a mix of cheap and expensive regions.  Every random
+16-ray packets (rtcIntersect16 / rtcOccluded16), deeper bounces with rtcIntersect1 / rtcOccluded1.
+Tiles are visited in a scattered order so that both threads get a mix of cheap and expensive
+regions.  Every random
 number is a pure function of (seed, pixel, sample index, dimension), so the image is bit-identical
 for a given seed whatever the thread count, and passes of samples add up exactly to one render.
 

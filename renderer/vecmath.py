@@ -26,7 +26,7 @@ _JIT = dict(cache=True, nogil=True, inline='always')
 # and poor 2-thread scaling.  `_nrt=False` compiles them without reference counting (they may
 # not create arrays); the caller (`render_pass`) owns the arrays for the whole pass.
 # The per-hit helpers called from `trace_path` (surface, colors, direct, sample_light, ...), and
-# `trace_path` itself in `render_pixel`, are also
+# `trace_path` itself in `integrator.render_tile`, are also
 # inlined at numba IR level (`inline='always'`): a call passes the 27-array tuple as ~190 scalar
 # arguments, and inlining them halved the time per sample outside Embree (single thread, interleaved:
 # quad + point light 1100 -> 520-780 ns/sample, Blinn-Phong 1120 -> 510-900) at the price of a longer
