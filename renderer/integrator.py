@@ -92,7 +92,7 @@ def new_tile_scratch():
     queue = (qvalid, qf, qu, np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
              np.zeros((PACKET, 3)))
     lanes = (np.zeros((PACKET, 3)), np.zeros((PACKET, 3)), np.zeros(PACKET), np.zeros((PACKET, 4), np.int64),
-             np.zeros((PACKET, 3)))
+             np.zeros((PACKET, 3)), np.zeros((PACKET, 4)))
     return (cvalid, cf, cu), queue, lanes
 
 
@@ -109,7 +109,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
     not depend on which lanes share its packets: images stay bit-identical across thread counts
     and pass splits.  One call per tile: the scene tables cross the call boundary once."""
     cvalid, cf, cu = packet
-    lane_o, lane_d, lane_t, lane_id, lane_L = lanes
+    lane_o, lane_d, lane_t, lane_id, lane_L, lane_u = lanes
     ldir = queue[6]
     tw = x1 - x0
     ns = s1 - s0
@@ -118,6 +118,8 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         n = min(PACKET, total - first)
         for j in range(PACKET):
             cvalid[j] = 0
+        # the packet's samples, then its rays: two short loops over independent lanes (the hashes
+        # of one lane overlap with the next lane's instead of waiting on the lens and camera math)
         for j in range(n):
             item = first + j
             pi = item // ns
@@ -131,11 +133,23 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 a, b = sample_2d(sampler, seed, pixel, index, spp, DIM_PIXEL)
                 lu = 0.5
                 lv = 0.5
-            fdx, fdy = filter_offset(filt, a, b)
+            lane_u[j, 0] = a
+            lane_u[j, 1] = b
+            lane_u[j, 2] = lu
+            lane_u[j, 3] = lv
             time = 0.0
             if use_time:
                 time = sample_1d(sampler, seed, pixel, index, spp, DIM_TIME)
-            o, d = generate_ray(cam, (x + 0.5 + fdx) / width, (y + 0.5 + fdy) / height, lu, lv, time)
+            lane_t[j] = time
+            lane_id[j, 0] = pixel
+            lane_id[j, 1] = index
+            lane_id[j, 2] = x
+            lane_id[j, 3] = y
+        for j in range(n):
+            fdx, fdy = filter_offset(filt, lane_u[j, 0], lane_u[j, 1])
+            time = lane_t[j]
+            o, d = generate_ray(cam, (lane_id[j, 2] + 0.5 + fdx) / width, (lane_id[j, 3] + 0.5 + fdy) / height,
+                                lane_u[j, 2], lane_u[j, 3], time)
             set_ray16(cvalid, cf, cu, j, o[0], o[1], o[2], d[0], d[1], d[2], cam[C_NEAR], cam[C_FAR], time)
             if rec is not None:
                 _record(rec, tile, RAYS_CAMERA, o[0], o[1], o[2], d[0], d[1], d[2], cam[C_NEAR], cam[C_FAR], time)
@@ -143,11 +157,6 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 lane_o[j, k] = o[k]
                 lane_d[j, k] = d[k]
                 ldir[j, k] = 0.0
-            lane_t[j] = time
-            lane_id[j, 0] = pixel
-            lane_id[j, 1] = index
-            lane_id[j, 2] = x
-            lane_id[j, 3] = y
         intersect16(scene, cvalid, cf)
         counts[RAYS_CAMERA] += n
         for j in range(n):
