@@ -12,11 +12,11 @@ simulated (as in the course).
 
 The kernel is a megakernel: one numba-parallel loop over image tiles, each thread tracing whole
 paths on the two-level Embree scene: camera rays and first-hit shadow rays (the coherent ones) in
-16-ray packets (rtcIntersect16 / rtcOccluded16), deeper bounces with rtcIntersect1 / rtcOccluded1.
-Tiles are visited in a scattered order so that both threads get a mix of cheap and expensive
-regions.  Every random
-number is a pure function of (seed, pixel, sample index, dimension), so the image is bit-identical
-for a given seed whatever the thread count, and passes of samples add up exactly to one render.
+16-ray packets (rtcIntersect16 / rtcOccluded16), deeper bounces (which start at the surface: tnear 0,
+tfar infinite) with rtcIntersect1 / rtcOccluded1.  Tiles are visited in a scattered order so that both
+threads get a mix of cheap and expensive regions.  Every random number is a pure function of (seed,
+pixel, sample index, dimension), so the image is bit-identical for a given seed whatever the thread
+count, and passes of samples add up exactly to one render.
 
 Ray recording (for benchmarks/bench_render.py, which replays the renderer's own rays on bare Embree):
 `render_pass(..., rec)` with `rec = new_ray_record(...)` stores every traced ray; with `rec=None`
@@ -160,7 +160,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         intersect16(scene, cvalid, cf)
         counts[RAYS_CAMERA] += n
         for j in range(n):
-            r, g, bl = trace_path(S, scene, cam, (lane_o[j, 0], lane_o[j, 1], lane_o[j, 2]),
+            r, g, bl = trace_path(S, scene, (lane_o[j, 0], lane_o[j, 1], lane_o[j, 2]),
                                   (lane_d[j, 0], lane_d[j, 1], lane_d[j, 2]), lane_t[j], sampler, seed,
                                   lane_id[j, 0], lane_id[j, 1], spp, max_depth, f, u, m, m32, counts, rec, tile,
                                   cf, cu, j, queue)
@@ -217,7 +217,7 @@ def _flush_shadows(scene, queue):
 
 
 @nb.njit(**SHADING_JIT, inline='always')
-def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts,
+def trace_path(S, scene, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts,
                rec, tile, cf, cu, lane, queue):
     """Radiance arriving at the camera along the camera ray (o, d) at shutter time `time`, except the
     direct light at the first hit, whose shadow rays go to `queue` (`_enqueue_shadow`).
@@ -236,8 +236,6 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
     ar = 1.0
     ag = 1.0
     ab = 1.0
-    tnear = cam[C_NEAR]
-    tfar = cam[C_FAR]
     ox, oy, oz = o
     dx, dy, dz = d
     for depth in range(max_depth + 1):
@@ -245,8 +243,8 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             hit = _lane_hit(cf, cu, lane, f, u)
         else:
             if rec is not None:
-                _record(rec, tile, RAYS_SECONDARY, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
-            hit = intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
+                _record(rec, tile, RAYS_SECONDARY, ox, oy, oz, dx, dy, dz, 0.0, np.inf, time)
+            hit = intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, 0.0, np.inf, time)
             counts[RAYS_SECONDARY] += 1
         dvec = (float(dx), float(dy), float(dz))
         if not hit:
@@ -280,8 +278,6 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             if opacity < 1.0:
                 if sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= opacity:
                     ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
-                    tnear = 0.0
-                    tfar = np.inf
                     continue
             Lr += tr * mf[mat, MF_EMIT]
             Lg += tg * mf[mat, MF_EMIT + 1]
@@ -385,8 +381,6 @@ def trace_path(S, scene, cam, o, d, time, sampler, seed, pixel, index, spp, max_
             tb *= w[2]
             ox, oy, oz = offset_origin(p, ng, osc)
             dx, dy, dz = nd
-        tnear = 0.0
-        tfar = np.inf
         if tr == 0.0 and tg == 0.0 and tb == 0.0:
             break
     return Lr, Lg, Lb
