@@ -532,7 +532,6 @@ class _Bulk:
             if p.shader is not None:
                 self._bind(spec, p.shader, stronger=True)
 
-
     def placements_as_text(self, placements: list[Placement]) -> Optional[str]:
         """What `placements` authors, as .usda text for the children of an empty
         /World/Instances (None when there are no placements)."""
