@@ -1,6 +1,7 @@
 """Helpers for the compiler tests: paths, a usdchecker stand-in, a CLI runner, scene snippets."""
 from __future__ import annotations
 
+import os
 from pathlib import Path
 
 from click.testing import CliRunner
@@ -10,7 +11,8 @@ from compiler.cli import compile_cmd
 
 REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "scenes"
-CORPUS = REPO.parent / "shared" / "corpus"
+# the shared folder beside the repository, or wherever RTC_SHARED points (as in tests/interop)
+CORPUS = Path(os.environ.get("RTC_SHARED", REPO.parent / "shared")) / "corpus"
 
 
 def validation_errors(stage) -> list[str]:

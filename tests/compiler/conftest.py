@@ -12,5 +12,5 @@ from compiler_helpers import CORPUS
 def course_scenes() -> list[Path]:
     course = CORPUS / "course"
     if not course.is_dir():
-        pytest.skip(f"course corpus not found at {course} (shared/ must sit beside the repo)")
+        pytest.skip(f"course corpus not found at {course} (shared/ must sit beside the repo, or set RTC_SHARED)")
     return sorted(course.rglob("*.xml"))

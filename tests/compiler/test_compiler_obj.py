@@ -56,7 +56,7 @@ def test_malformed_files_name_the_line(tmp_path, text, message, line):
 def test_course_ngon_mesh_is_triangulated():
     path = CORPUS / "course" / "scenes_B" / "objFiles" / "al.obj"
     if not path.is_file():
-        pytest.skip("course corpus not available")
+        pytest.skip(f"course corpus not found at {CORPUS / 'course'} (set RTC_SHARED)")
     mesh = load_obj(path)
     counts = [len(l.split()) - 1 for l in path.read_text().splitlines() if l.startswith("f ")]
     assert mesh.polygons == len(counts) == 3440

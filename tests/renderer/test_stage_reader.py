@@ -8,6 +8,7 @@ gives (container geometry x placement matrix).
 from __future__ import annotations
 
 import math
+import os
 from collections import defaultdict
 from pathlib import Path
 
@@ -22,7 +23,7 @@ from renderer.stage_reader import read_stage, rotate_x
 from renderer.usd_geometry import GeometryError, convert_gprim, converter_for
 from renderer.usd_instancing import InstanceGraph
 
-CORPUS = Path(__file__).resolve().parents[2].parent / 'shared' / 'corpus' / 'usd'
+CORPUS = Path(os.environ.get('RTC_SHARED', Path(__file__).resolve().parents[2].parent / 'shared')) / 'corpus' / 'usd'
 IMAGING = CORPUS / 'openusd' / 'pxr' / 'usdImaging' / 'usdImagingGL' / 'testenv'
 PI = UsdGeom.PointInstancer
 
