@@ -115,9 +115,11 @@ def generate_ray(cam, fx, fy, lens_u, lens_v, time):
             ly *= cam[C_LENS]
             fd = cam[C_FOCUS]                  # the pinhole ray meets the focal plane z = -focus
             o = (lx, ly, 0.0)                  # at (sx, sy, -1) * focus
-            d = normalize((sx * fd - lx, sy * fd - ly, -fd))
+            d = (sx * fd - lx, sy * fd - ly, -fd)
         else:
-            d = normalize((sx, sy, -1.0))
+            d = (sx, sy, -1.0)
+    # d needs no normalising here: the world direction below is normalised, and M (d / |d|) / |M (d / |d|)|
+    # = M d / |M d| (one square root and reciprocal per ray instead of two)
     # camera -> world (lerp the two shutter matrices when the camera moves)
     a = time if cam[C_MOVING] != 0.0 else 0.0
     wo = (_m(cam, 0, a) * o[0] + _m(cam, 1, a) * o[1] + _m(cam, 2, a) * o[2] + _m(cam, 3, a),

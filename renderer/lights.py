@@ -53,8 +53,9 @@ def sample_light(S, k, p, n, u1, u2):
         if d2 <= 0.0:
             return (0.0, 0.0, 1.0), 0.0, zero
         d = math.sqrt(d2)
-        inv = 1.0 / d2
-        return (v[0] / d, v[1] / d, v[2] / d), d, (L[0] * inv, L[1] * inv, L[2] * inv)
+        r = 1.0 / d
+        inv = r * r
+        return (v[0] * r, v[1] * r, v[2] * r), d, (L[0] * inv, L[1] * inv, L[2] * inv)
     if t == D.RECT or t == D.DISK:
         ex = _col(lf, k, 0)
         ey = _col(lf, k, 1)
@@ -72,12 +73,13 @@ def sample_light(S, k, p, n, u1, u2):
         if d2 <= 0.0:
             return (0.0, 0.0, 1.0), 0.0, zero
         d = math.sqrt(d2)
-        wi = (v[0] / d, v[1] / d, v[2] / d)
+        r = 1.0 / d
+        wi = (v[0] * r, v[1] * r, v[2] * r)
         nl = normalize(_col(lf, k, 2))            # light emits along local -Z
         cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
         if cos_l <= 0.0:
             return wi, d, zero
-        g = cos_l * lf[k, LF_AREA] / d2
+        g = cos_l * lf[k, LF_AREA] * (r * r)
         return wi, d, (L[0] * g, L[1] * g, L[2] * g)
     if t == D.SPHERE:
         r = lf[k, LF_RADIUS]
@@ -86,7 +88,8 @@ def sample_light(S, k, p, n, u1, u2):
         if d2 <= r * r:
             return (0.0, 0.0, 1.0), 0.0, zero
         d = math.sqrt(d2)
-        w = (v[0] / d, v[1] / d, v[2] / d)
+        rd = 1.0 / d
+        w = (v[0] * rd, v[1] * rd, v[2] * rd)
         cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
         cos_t = 1.0 - u1 * (1.0 - cos_max)
         sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))

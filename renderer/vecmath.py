@@ -95,9 +95,13 @@ def length(a):
 
 @nb.njit(**_JIT)
 def normalize(a):
-    n = math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
-    if n > 0.0:
-        return (a[0] / n, a[1] / n, a[2] / n)
+    """a / |a| ((0, 0, 1) for a zero vector).  One reciprocal and three products, not three
+    divisions: the shading code is bound by the latency of square-root -> division chains
+    (perf, ellipsoids.xml: the hottest instructions of the kernel were normalisations' divisions)."""
+    n2 = a[0] * a[0] + a[1] * a[1] + a[2] * a[2]
+    if n2 > 0.0:
+        inv = 1.0 / math.sqrt(n2)
+        return (a[0] * inv, a[1] * inv, a[2] * inv)
     return (0.0, 0.0, 1.0)
 
 
