@@ -107,13 +107,18 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
     bounces use single rays.  Each lane's radiance is (path without the first-hit direct light) +
     (first-hit direct light), the latter summed per lane in light order, so a sample's value does
     not depend on which lanes share its packets: images stay bit-identical across thread counts
-    and pass splits.  One call per tile: the scene tables cross the call boundary once."""
+    and pass splits.  One call per tile: the scene tables cross the call boundary once.
+    (Shading the first hits in stages, one short loop over the 16 lanes per stage - shading points,
+    direct light, continuations - was measured: no gain, 0.98-1.02x.)"""
     cvalid, cf, cu = packet
     lane_o, lane_d, lane_t, lane_id, lane_L, lane_u = lanes
     ldir = queue[6]
-    tw = x1 - x0
-    ns = s1 - s0
-    total = tw * (y1 - y0) * ns
+    total = (x1 - x0) * (y1 - y0) * (s1 - s0)
+    # the next (pixel, sample) pair: sample `nidx` of pixel (nx, ny), advanced pixel-major (counters, not
+    # three integer divisions per sample)
+    nidx = s0
+    nx = x0
+    ny = y0
     for first in range(0, total, PACKET):
         n = min(PACKET, total - first)
         for j in range(PACKET):
@@ -121,11 +126,9 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         # the packet's samples, then its rays: two short loops over independent lanes (the hashes
         # of one lane overlap with the next lane's instead of waiting on the lens and camera math)
         for j in range(n):
-            item = first + j
-            pi = item // ns
-            index = s0 + item - pi * ns
-            x = x0 + pi % tw
-            y = y0 + pi // tw
+            index = nidx
+            x = nx
+            y = ny
             pixel = y * width + x
             if use_lens:
                 a, b, lu, lv = sample_pixel_lens(sampler, seed, pixel, index, spp)
@@ -145,6 +148,13 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
             lane_id[j, 1] = index
             lane_id[j, 2] = x
             lane_id[j, 3] = y
+            nidx += 1
+            if nidx == s1:
+                nidx = s0
+                nx += 1
+                if nx == x1:
+                    nx = x0
+                    ny += 1
         for j in range(n):
             fdx, fdy = filter_offset(filt, lane_u[j, 0], lane_u[j, 1])
             time = lane_t[j]
@@ -161,9 +171,9 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         counts[RAYS_CAMERA] += n
         for j in range(n):
             r, g, bl = trace_path(S, scene, (lane_o[j, 0], lane_o[j, 1], lane_o[j, 2]),
-                                  (lane_d[j, 0], lane_d[j, 1], lane_d[j, 2]), lane_t[j], sampler, seed,
-                                  lane_id[j, 0], lane_id[j, 1], spp, max_depth, f, u, m, m32, counts, rec, tile,
-                                  cf, cu, j, queue)
+                                  (lane_d[j, 0], lane_d[j, 1], lane_d[j, 2]), lane_t[j],
+                                  (sampler, seed, lane_id[j, 0], lane_id[j, 1], spp), max_depth, f, u, m, m32, counts,
+                                  rec, tile, cf, cu, j, queue, 0, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0))
             lane_L[j, 0] = r
             lane_L[j, 1] = g
             lane_L[j, 2] = bl
@@ -217,28 +227,154 @@ def _flush_shadows(scene, queue):
 
 
 @nb.njit(**SHADING_JIT, inline='always')
-def trace_path(S, scene, o, d, time, sampler, seed, pixel, index, spp, max_depth, f, u, m, m32, counts,
-               rec, tile, cf, cu, lane, queue):
-    """Radiance arriving at the camera along the camera ray (o, d) at shutter time `time`, except the
-    direct light at the first hit, whose shadow rays go to `queue` (`_enqueue_shadow`).
-    The camera ray was traced as lane `lane` of the packet (cf, cu).
+def _shading_point(S, scene, f, u, o, dvec, time, m, m32):
+    """The surface hit by the ray (o, dvec) whose hit is in (f, u): (p, ng, ns, st, material, model,
+    front), the normals turned towards the viewer (front: the ray hit the outside)."""
+    p, ng, ns, st, g, mat = surface(S, scene, u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID],
+                                    float(f[U]), float(f[V]), o, dvec, float(f[TFAR]), time, m, m32)
+    model = S.mat_i[mat, MI_MODEL]
+    front = dot(ng, dvec) < 0.0
+    if not front:
+        ng = (-ng[0], -ng[1], -ng[2])
+        ns = (-ns[0], -ns[1], -ns[2])
+    if dot(ns, dvec) > 0.0:            # interpolated normal facing away: use the true one
+        ns = ng
+    return p, ng, ns, st, mat, model, front
+
+
+@nb.njit(**SHADING_JIT, inline='always')
+def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth, lane, queue, time,
+                  f, u, counts, rec, tile, T, L):
+    """Direct light at a shading point, one sample per light (soft shadows from area lights), added
+    to the radiance L = (Lr, Lg, Lb) with throughput T = (tr, tg, tb); returns the new L.  At the first
+    hit (depth 0) the shadow rays go to the packet queue and their contributions to the lane's
+    first-hit light instead.  smp = (sampler, seed, pixel, index, spp).  (Arguments are grouped in
+    tuples: a call with over 30 arguments compiles to CALL_FUNCTION_EX, which numba cannot inline.)"""
+    sampler, seed, pixel, index, spp = smp
+    tr, tg, tb = T
+    Lr, Lg, Lb = L
+    po = offset_origin(p, ng, osc)
+    for k in range(n_lights):
+        u1 = 0.5
+        u2 = 0.5
+        if light_is_area(S, k):
+            u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
+        wi, dist, E = sample_light(S, k, p, ns, u1, u2)
+        if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
+            continue
+        if dot(wi, ng) <= 0.0:
+            continue
+        c = direct(S, mat, kd, ks, ns, wo, wi, E)
+        if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
+            continue
+        if model != D.COOL_TO_WARM:      # Gooch tone shading is unshadowed
+            counts[RAYS_SHADOW] += 1
+            smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
+            if rec is not None:
+                _record(rec, tile, RAYS_SHADOW, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time)
+            if depth == 0:               # first hit: traced later, in a packet
+                _enqueue_shadow(scene, queue, lane, po, wi, smax, time, tr * c[0], tg * c[1], tb * c[2])
+                continue
+            if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
+                continue
+        Lr += tr * c[0]
+        Lg += tg * c[1]
+        Lb += tb * c[2]
+    return Lr, Lg, Lb
+
+
+@nb.njit(**SHADING_JIT, inline='always')
+def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, model, front, osc, T, A):
+    """One specular continuation (mirror, glossy, glaze, refraction; the glossy pair is drawn only
+    where a lobe uses it) from throughput T and medium attenuation A: (alive, origin, direction,
+    throughput rgb, medium attenuation rgb)."""
+    sampler, seed, pixel, index, spp = smp
+    tr, tg, tb = T
+    ar, ag, ab = A
+    mf = S.mat_f
+    dead = (False, (0.0, 0.0, 0.0), dvec, tr, tg, tb, ar, ag, ab)
+    if model == D.DIELECTRIC:
+        ior = float(mf[mat, MF_IOR])
+        eta = ior if front else 1.0 / ior
+        cos_i = -dot(dvec, ns)
+        F, cos_t = fresnel_dielectric(cos_i, eta)
+        uc = sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1)
+        if uc < F:
+            nd = reflect(dvec, ns)
+            o = offset_origin(p, ng, osc)
+        else:
+            nd = refract(dvec, ns, eta, cos_i, cos_t)
+            o = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
+            if front:                        # entering the medium
+                ar = float(mf[mat, MF_ATTEN])
+                ag = float(mf[mat, MF_ATTEN + 1])
+                ab = float(mf[mat, MF_ATTEN + 2])
+            else:
+                ar = 1.0
+                ag = 1.0
+                ab = 1.0
+        return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr, tg, tb, ar, ag, ab
+    if model == D.PREVIEW_SURFACE:
+        diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
+        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        tt, bb = onb(ns)
+        h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
+        nd = reflect(dvec, h)
+        nv = dot(ns, wo)
+        nl = dot(ns, nd)
+        nh = dot(ns, h)
+        vh = dot(wo, h)
+        if nl <= 0.0 or nv <= 0.0 or nh <= 0.0 or vh <= 0.0 or dot(nd, ng) <= 0.0:
+            return dead
+        gw = smith_g(nl, nv, alpha) * vh / (nh * nv)
+        wr = _schlick(f0[0], f90[0], vh) * gw
+        wg = _schlick(f0[1], f90[1], vh) * gw
+        wb = _schlick(f0[2], f90[2], vh) * gw
+        # Russian roulette on the continuation weight keeps rough dielectrics cheap
+        q = min(1.0, max(wr, max(wg, wb)))
+        if q <= 0.0 or sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= q:
+            return dead
+        o = offset_origin(p, ng, osc)
+        return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr * (wr / q), tg * (wg / q), tb * (wb / q), ar, ag, ab
+    w = mirror_weight(S, mat, model, ks)
+    if w[0] <= 0.0 and w[1] <= 0.0 and w[2] <= 0.0:
+        return dead
+    nd = reflect(dvec, ns)
+    rough = float(mf[mat, MF_ROUGH])
+    if rough > 0.0 and model == D.BLINN_PHONG_MIRRORED:
+        # the course's glossy reflection: perturb r on a square of side `roughness`
+        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        tt, bb = onb(nd)
+        a = rough * (g1 - 0.5)
+        b = rough * (g2 - 0.5)
+        nd = normalize((nd[0] + a * tt[0] + b * bb[0], nd[1] + a * tt[1] + b * bb[1],
+                        nd[2] + a * tt[2] + b * bb[2]))
+    if dot(nd, ng) <= 0.0:
+        return dead
+    o = offset_origin(p, ng, osc)
+    return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr * w[0], tg * w[1], tb * w[2], ar, ag, ab
+
+
+@nb.njit(**SHADING_JIT, inline='always')
+def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, tile, cf, cu, lane, queue,
+               depth0, L, T, A):
+    """Radiance arriving along the ray (o, d) at shutter time `time`, starting at bounce `depth0`
+    with radiance L = (Lr, Lg, Lb) gathered so far, throughput T = (tr, tg, tb) and the Beer
+    attenuation A = (ar, ag, ab) of the medium the ray travels in (1 = vacuum);
+    smp = (sampler, seed, pixel, index, spp).  Bounce 0 is the camera ray, traced
+    as lane `lane` of the packet (cf, cu); its direct light is not included: its shadow rays go to
+    `queue` (`_enqueue_shadow`).
     `rec`: None, or a ray record (`new_ray_record`) to which the rays of tile `tile` are appended."""
     n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
     per = _dims_per_bounce(n_lights)
     osc = S.offset_scale[0]            # scale of the near-origin ray offset (build.offset_scale)
-    Lr = 0.0
-    Lg = 0.0
-    Lb = 0.0
-    tr = 1.0
-    tg = 1.0
-    tb = 1.0
-    # Beer attenuation of the medium the ray travels in (1 = vacuum)
-    ar = 1.0
-    ag = 1.0
-    ab = 1.0
+    sampler, seed, pixel, index, spp = smp
+    Lr, Lg, Lb = L
+    tr, tg, tb = T
+    ar, ag, ab = A
     ox, oy, oz = o
     dx, dy, dz = d
-    for depth in range(max_depth + 1):
+    for depth in range(depth0, max_depth + 1):
         if depth == 0:                     # traced in the camera packet: copy the lane's hit
             hit = _lane_hit(cf, cu, lane, f, u)
         else:
@@ -258,16 +394,8 @@ def trace_path(S, scene, o, d, time, sampler, seed, pixel, index, spp, max_depth
             tr *= ar ** t
             tg *= ag ** t
             tb *= ab ** t
-        p, ng, ns, st, g, mat = surface(S, scene, u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID],
-                                        float(f[U]), float(f[V]), (float(ox), float(oy), float(oz)),
-                                        dvec, t, time, m, m32)
-        model = S.mat_i[mat, MI_MODEL]
-        front = dot(ng, dvec) < 0.0
-        if not front:
-            ng = (-ng[0], -ng[1], -ng[2])
-            ns = (-ns[0], -ns[1], -ns[2])
-        if dot(ns, dvec) > 0.0:            # interpolated normal facing away: use the true one
-            ns = ng
+        p, ng, ns, st, mat, model, front = _shading_point(S, scene, f, u, (float(ox), float(oy), float(oz)),
+                                                          dvec, time, m, m32)
         wo = (-dvec[0], -dvec[1], -dvec[2])
         kd, ks = colors(S, mat, st)
         base = DIM_BOUNCE0 + depth * per
@@ -282,105 +410,17 @@ def trace_path(S, scene, o, d, time, sampler, seed, pixel, index, spp, max_depth
             Lr += tr * mf[mat, MF_EMIT]
             Lg += tg * mf[mat, MF_EMIT + 1]
             Lb += tb * mf[mat, MF_EMIT + 2]
-        # ---- direct light, one sample per light (soft shadows from area lights)
         if has_diffuse_lobe(model):
-            po = offset_origin(p, ng, osc)
-            for k in range(n_lights):
-                u1 = 0.5
-                u2 = 0.5
-                if light_is_area(S, k):
-                    u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
-                wi, dist, E = sample_light(S, k, p, ns, u1, u2)
-                if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
-                    continue
-                if dot(wi, ng) <= 0.0:
-                    continue
-                c = direct(S, mat, kd, ks, ns, wo, wi, E)
-                if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
-                    continue
-                if model != D.COOL_TO_WARM:      # Gooch tone shading is unshadowed
-                    counts[RAYS_SHADOW] += 1
-                    smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-                    if rec is not None:
-                        _record(rec, tile, RAYS_SHADOW, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time)
-                    if depth == 0:               # first hit: traced later, in a packet
-                        _enqueue_shadow(scene, queue, lane, po, wi, smax, time, tr * c[0], tg * c[1], tb * c[2])
-                        continue
-                    if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
-                        continue
-                Lr += tr * c[0]
-                Lg += tg * c[1]
-                Lb += tb * c[2]
+            Lr, Lg, Lb = _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth,
+                                       lane, queue, time, f, u, counts, rec, tile, (tr, tg, tb), (Lr, Lg, Lb))
         if depth == max_depth:
             break
-        # ---- one specular continuation (the glossy pair is drawn only where a lobe uses it)
-        if model == D.DIELECTRIC:
-            ior = float(mf[mat, MF_IOR])
-            eta = ior if front else 1.0 / ior
-            cos_i = -dot(dvec, ns)
-            F, cos_t = fresnel_dielectric(cos_i, eta)
-            uc = sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1)
-            if uc < F:
-                nd = reflect(dvec, ns)
-                ox, oy, oz = offset_origin(p, ng, osc)
-            else:
-                nd = refract(dvec, ns, eta, cos_i, cos_t)
-                ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
-                if front:                        # entering the medium
-                    ar = float(mf[mat, MF_ATTEN])
-                    ag = float(mf[mat, MF_ATTEN + 1])
-                    ab = float(mf[mat, MF_ATTEN + 2])
-                else:
-                    ar = 1.0
-                    ag = 1.0
-                    ab = 1.0
-            dx, dy, dz = nd
-        elif model == D.PREVIEW_SURFACE:
-            diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
-            g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
-            tt, bb = onb(ns)
-            h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
-            nd = reflect(dvec, h)
-            nv = dot(ns, wo)
-            nl = dot(ns, nd)
-            nh = dot(ns, h)
-            vh = dot(wo, h)
-            if nl <= 0.0 or nv <= 0.0 or nh <= 0.0 or vh <= 0.0 or dot(nd, ng) <= 0.0:
-                break
-            gw = smith_g(nl, nv, alpha) * vh / (nh * nv)
-            wr = _schlick(f0[0], f90[0], vh) * gw
-            wg = _schlick(f0[1], f90[1], vh) * gw
-            wb = _schlick(f0[2], f90[2], vh) * gw
-            # Russian roulette on the continuation weight keeps rough dielectrics cheap
-            q = min(1.0, max(wr, max(wg, wb)))
-            if q <= 0.0 or sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= q:
-                break
-            tr *= wr / q
-            tg *= wg / q
-            tb *= wb / q
-            ox, oy, oz = offset_origin(p, ng, osc)
-            dx, dy, dz = nd
-        else:
-            w = mirror_weight(S, mat, model, ks)
-            if w[0] <= 0.0 and w[1] <= 0.0 and w[2] <= 0.0:
-                break
-            nd = reflect(dvec, ns)
-            rough = float(mf[mat, MF_ROUGH])
-            if rough > 0.0 and model == D.BLINN_PHONG_MIRRORED:
-                # the course's glossy reflection: perturb r on a square of side `roughness`
-                g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
-                tt, bb = onb(nd)
-                a = rough * (g1 - 0.5)
-                b = rough * (g2 - 0.5)
-                nd = normalize((nd[0] + a * tt[0] + b * bb[0], nd[1] + a * tt[1] + b * bb[1],
-                                nd[2] + a * tt[2] + b * bb[2]))
-            if dot(nd, ng) <= 0.0:
-                break
-            tr *= w[0]
-            tg *= w[1]
-            tb *= w[2]
-            ox, oy, oz = offset_origin(p, ng, osc)
-            dx, dy, dz = nd
+        alive, o2, nd, tr, tg, tb, ar, ag, ab = _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks,
+                                                               mat, model, front, osc, (tr, tg, tb), (ar, ag, ab))
+        if not alive:
+            break
+        ox, oy, oz = o2
+        dx, dy, dz = nd
         if tr == 0.0 and tg == 0.0 and tb == 0.0:
             break
     return Lr, Lg, Lb

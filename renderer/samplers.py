@@ -61,7 +61,9 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
 
 # --------------------------------------------------------------------------- public constants
 INDEPENDENT, STRATIFIED, CMJ, SOBOL = 0, 1, 2, 3
@@ -78,6 +80,10 @@ BOUNCE_BSDF = 2
 BOUNCE_FRESNEL = 3
 
 _M32 = 0xFFFFFFFF
+# The hashing and scrambling helpers are inlined into the three public functions at numba IR level: as
+# separate LLVM functions (numba's calling convention: results through memory, a status check per
+# call) a Sobol' 2D sample took 45 ns, inlined 29 ns (microbenchmark, same values).
+_INLINE = dict(cache=True, nogil=True, inline='always')
 _INV_2_24 = 1.0 / 16777216.0
 _ONE_MINUS = 1.0 - _INV_2_24       # largest float32 below 1: clamp so that float32(u) < 1 too
 
@@ -89,7 +95,7 @@ def bounce_dim(bounce, offset):
 
 
 # --------------------------------------------------------------------------- integer hashing
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def mix32(x):
     """Chris Wellons' 'lowbias32' 32-bit integer finaliser (full avalanche, bias ~0.17)."""
     x &= _M32
@@ -101,7 +107,7 @@ def mix32(x):
     return x
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def hash_combine(h, v):
     """Fold the (up to 64-bit, non-negative) integer ``v`` into the 32-bit hash ``h``."""
     v = np.int64(v)
@@ -112,20 +118,20 @@ def hash_combine(h, v):
     return h
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def hash3(a, b, c):
     """32-bit hash of three integers."""
     return hash_combine(hash_combine(mix32(np.int64(a) ^ 0x2545F491), b), c)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def to_unit(x):
     """Top 24 bits of a 32-bit integer as a float in [0, 1), exact in float32."""
     return ((x & _M32) >> 8) * _INV_2_24
 
 
 # --------------------------------------------------------------------------- Kensler 2013
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def permute(i, l, p):
     """Kensler 2013, listing 3: a pseudo-random permutation of [0, l) indexed by pattern ``p``,
     evaluated at ``i`` (hash on the next power of two with cycle walking)."""
@@ -161,7 +167,7 @@ def permute(i, l, p):
     return (i + p) % l
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def randfloat(i, p):
     """Kensler 2013, listing 4: hashed float in [0, 1) for index ``i`` and pattern ``p``
     (returned with 24 bits so that it stays < 1 in float32)."""
@@ -180,7 +186,7 @@ def randfloat(i, p):
     return to_unit(i)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def cmj(s, n_samples, p):
     """Kensler 2013, listing 6 (final CMJ, any N, aspect 1): sample ``s`` of ``n_samples`` of
     pattern ``p``.  One sample per cell of the m x n grid (m = floor(sqrt(N)), n = ceil(N/m)) and
@@ -247,7 +253,7 @@ SOBOL_DIRECTIONS = _sobol_directions(4)
 SOBOL_BYTES = _byte_tables(SOBOL_DIRECTIONS)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def sobol(index, dim):
     """Unscrambled 32-bit Sobol' value of ``index`` in dimension ``dim`` (0..3), natural order:
     the XOR of the direction numbers of the set bits of ``index`` (generator-matrix product)."""
@@ -256,19 +262,26 @@ def sobol(index, dim):
             ^ SOBOL_BYTES[dim, 2, (index >> 16) & 0xFF] ^ SOBOL_BYTES[dim, 3, index >> 24])
 
 
-@njit(cache=True, nogil=True)
+@intrinsic
+def _bitreverse32(typingctx, x):
+    """LLVM's `llvm.bitreverse.i32` on the low 32 bits of an int64 (zero-extended back): a byte swap
+    and three mask-and-shift steps on x86-64 instead of five (or a GFNI affine op where available)."""
+    sig = types.int64(types.int64)
+
+    def codegen(context, builder, signature, args):
+        i32 = ir.IntType(32)
+        fn = builder.module.declare_intrinsic('llvm.bitreverse', [i32])
+        return builder.zext(builder.call(fn, [builder.trunc(args[0], i32)]), ir.IntType(64))
+    return sig, codegen
+
+
+@njit(**_INLINE)
 def reverse_bits(x):
     """Reverse the 32 bits of ``x``."""
-    x &= _M32
-    x = ((x >> 1) & 0x55555555) | ((x & 0x55555555) << 1)
-    x = ((x >> 2) & 0x33333333) | ((x & 0x33333333) << 2)
-    x = ((x >> 4) & 0x0F0F0F0F) | ((x & 0x0F0F0F0F) << 4)
-    x = ((x >> 8) & 0x00FF00FF) | ((x & 0x00FF00FF) << 8)
-    x = ((x >> 16) & 0x0000FFFF) | ((x & 0x0000FFFF) << 16)
-    return x & _M32
+    return _bitreverse32(np.int64(x))
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def laine_karras_permutation(x, seed):
     """Owen-scrambling hash on bit-reversed integers (Burley 2020, listing 2): every output bit
     depends only on the same and lower input bits.  Constants from Vegdahl 2021's improved hash."""
@@ -282,13 +295,13 @@ def laine_karras_permutation(x, seed):
     return x
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def nested_uniform_scramble(x, seed):
     """Owen (nested uniform) scramble of a 32-bit fixed-point value (Burley 2020, listing 3)."""
     return reverse_bits(laine_karras_permutation(reverse_bits(x), seed))
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def _sobol_owen_2d(index, seed, d0):
     """Dims d0, d0+1 of the Owen-scrambled Sobol' point at shuffled ``index``."""
     x = nested_uniform_scramble(sobol(index, d0), hash_combine(seed, d0))
@@ -296,7 +309,7 @@ def _sobol_owen_2d(index, seed, d0):
     return to_unit(x), to_unit(y)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def sobol_sample_4d(seed, pixel, index):
     """Pairs 0 and 1 (pixel, lens) of sample ``index`` at once: one 4D point, so one hash and one
     index shuffle instead of two of each (the values of two `sobol_sample_2d` calls)."""
@@ -307,7 +320,7 @@ def sobol_sample_4d(seed, pixel, index):
     return a, b, c, d
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def sobol_sample_2d(seed, pixel, index, dim):
     """Pair ``dim`` of the Owen-scrambled Sobol' sample ``index``: pairs 0, 1 = one 4D point,
     later pairs = padded 2D points with a per-(pixel, pair) index shuffle (Burley 2020, sec. 4-5)."""
@@ -321,14 +334,14 @@ def sobol_sample_2d(seed, pixel, index, dim):
 
 
 # --------------------------------------------------------------------------- other samplers
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def independent_sample_2d(seed, pixel, index, dim):
     """Two hashed uniform numbers for (seed, pixel, index, pair)."""
     h = hash_combine(hash3(seed, pixel, index), dim)
     return to_unit(mix32(h ^ 0x68E31DA4)), to_unit(mix32(h ^ 0xB5297A4D))
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def _grid_factor(n):
     """Most square factorisation n = nx * ny with nx <= ny; returns nx."""
     nx = np.int64(math.sqrt(n))
@@ -341,7 +354,7 @@ def _grid_factor(n):
     return max(nx, 1)
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def _pattern(seed, pixel, index, spp, dim):
     """Kensler pattern id of the set that sample ``index`` belongs to, and its index in the set."""
     rnd = index // spp
@@ -351,7 +364,7 @@ def _pattern(seed, pixel, index, spp, dim):
     return p, index - rnd * spp
 
 
-@njit(cache=True, nogil=True)
+@njit(**_INLINE)
 def stratified_sample_2d(seed, pixel, index, spp, dim):
     """Jittered nx x ny grid sample; cell order permuted per (seed, pixel, pair)."""
     p, i = _pattern(seed, pixel, index, spp, dim)

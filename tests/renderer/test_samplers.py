@@ -159,6 +159,16 @@ def test_sobol_generator_matches_joe_kuo():
             assert v & (1 << (31 - k)) and v & ((1 << (31 - k)) - 1) == 0
 
 
+def test_reverse_bits_reverses_the_low_32_bits():
+    """The LLVM bitreverse intrinsic against string reversal of the 32-bit binary form."""
+    rng = np.random.default_rng(5)
+    values = [0, 1, 2, 0x80000000, 0xFFFFFFFF, 0x12345678] + [int(v) for v in rng.integers(0, 2**32, 2000)]
+    for v in values:
+        assert S.reverse_bits(v) == int(f'{v:032b}'[::-1], 2)
+    # only the low 32 bits take part (the int64 callers pass masked values, but the contract is explicit)
+    assert S.reverse_bits((7 << 40) | 1) == 0x80000000
+
+
 def test_nested_uniform_scramble_maps_aligned_blocks_to_aligned_blocks():
     for m in (0, 3, 6):
         for seed in (1, 0xDEADBEEF, 12345):
