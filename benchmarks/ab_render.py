@@ -1,0 +1,121 @@
+"""In-process A/B of two versions of the renderer's kernels: the machine is shared and noisy, so two
+versions are only compared by renders that alternate in one process.
+
+    python benchmarks/ab_render.py scenes/dof.xml scenes/bunnies.xml --base HEAD --spp 8 --rounds 9
+    python benchmarks/ab_render.py scenes/*.xml --base HEAD~3 --threads 1
+
+`--base REV` is a git revision whose `renderer/` (from `git archive`) is imported as a second package
+beside the working tree's `renderer/`; `--base-tree DIR` takes a directory holding a `renderer/`
+instead.  Each scene is read once (by the working tree's reader), built by both versions, and
+rendered `--rounds` times by each, alternating A, B, A, B...  Reported per scene: median ns per sample
+(per thread) of each, and the median of the per-round time ratios base/new (> 1: the new version is
+faster), with the range.  The images of the two versions are compared: "identical" or the largest
+difference (a kernel change meant to be exact must print "identical").
+"""
+from __future__ import annotations
+
+import argparse
+import importlib
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+import numba
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+
+def import_copy(tree: Path, name: str):
+    """Import `tree/renderer` as package `name` (its kernels get their own numba cache)."""
+    dst = tree.resolve() / '_ab_import'
+    dst.mkdir(exist_ok=True)
+    link = dst / name
+    if not link.exists():
+        link.symlink_to((tree / 'renderer').resolve(), target_is_directory=True)
+    sys.path.insert(0, str(dst))
+    return importlib.import_module(name + '.render')
+
+
+def base_tree(rev: str) -> Path:
+    """`renderer/` of revision `rev`, extracted once per commit to a fixed place (so that its cached
+    kernels are found again by the next run)."""
+    sha = subprocess.run(['git', '-C', str(ROOT), 'rev-parse', rev], check=True, capture_output=True,
+                         text=True).stdout.strip()
+    out = Path(tempfile.gettempdir()) / 'rtc_ab' / sha
+    if not (out / 'renderer').is_dir():
+        archive = subprocess.run(['git', '-C', str(ROOT), 'archive', sha, 'renderer'], check=True,
+                                 capture_output=True).stdout
+        out.mkdir(parents=True, exist_ok=True)
+        subprocess.run(['tar', '-x', '-C', str(out)], input=archive, check=True)
+    return out
+
+
+def load(path: str):
+    if path.lower().endswith('.xml'):
+        from rtc.cli import load_scene
+        return load_scene(path, quiet=True)
+    from renderer.stage_reader import read_stage
+    return read_stage(path)
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('scenes', nargs='+')
+    g = ap.add_mutually_exclusive_group()
+    g.add_argument('--base', default='HEAD', help='git revision of the baseline (default HEAD)')
+    g.add_argument('--base-tree', help='directory holding the baseline renderer/')
+    ap.add_argument('--width', type=int, default=320)
+    ap.add_argument('--height', type=int, default=240)
+    ap.add_argument('--spp', type=int, default=8)
+    ap.add_argument('--sampler', default='sobol')
+    ap.add_argument('--filter', default='gaussian')
+    ap.add_argument('--max-depth', type=int, default=4)
+    ap.add_argument('--seed', type=int, default=7)
+    ap.add_argument('--threads', type=int, default=1)
+    ap.add_argument('--rounds', type=int, default=7)
+    a = ap.parse_args(argv)
+
+    tree = Path(a.base_tree) if a.base_tree else base_tree(a.base)
+    base = import_copy(tree, 'rtc_ab_base')
+    new = importlib.import_module('renderer.render')
+    numba.set_num_threads(a.threads)
+    print(f'base {a.base_tree or a.base} vs working tree; {a.width}x{a.height}, {a.spp} spp, {a.sampler}/{a.filter}, '
+          f'max depth {a.max_depth}, {a.threads} thread(s), {a.rounds} rounds', flush=True)
+    for path in a.scenes:
+        desc = load(path)
+        versions = {}
+        for label, mod in (('base', base), ('new', new)):
+            opts = mod.RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler=a.sampler, filter=a.filter,
+                                     seed=a.seed, max_depth=a.max_depth)
+            r = mod.Renderer(desc)
+            t0 = time.perf_counter()
+            r.render(mod.RenderOptions(**{**opts.__dict__, 'spp': 1}))          # kernel load / compile
+            versions[label] = (r, opts, time.perf_counter() - t0)
+        secs = {'base': [], 'new': []}
+        images = {}
+        for _ in range(a.rounds):
+            for label in ('base', 'new'):
+                r, opts, _ = versions[label]
+                res = r.render(opts)
+                secs[label].append(res.stats.seconds)
+                images[label] = res.image
+        samples = a.width * a.height * a.spp
+        ns = {k: statistics.median(v) * a.threads / samples * 1e9 for k, v in secs.items()}
+        ratios = sorted(b / n for b, n in zip(secs['base'], secs['new']))
+        diff = float(np.max(np.abs(images['base'].astype(np.float64) - images['new'])))
+        same = 'identical' if np.array_equal(images['base'], images['new']) else f'max |diff| {diff:.3g}'
+        print(f'{Path(path).name:16s} base {ns["base"]:7.1f} ns/sample  new {ns["new"]:7.1f} ns/sample  '
+              f'speed-up {statistics.median(ratios):.3f}x (range {ratios[0]:.3f}-{ratios[-1]:.3f})  images {same}'
+              f'   [first call: base {versions["base"][2]:.1f} s, new {versions["new"][2]:.1f} s]', flush=True)
+        for r, _, _ in versions.values():
+            r.close()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
