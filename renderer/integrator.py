@@ -30,12 +30,12 @@ import numpy as np
 
 from . import description as D
 from .build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
-from .cameras import C_FAR, C_NEAR, generate_ray
+from .cameras import C_FAR, C_NEAR, camera_rays
 from .filters import filter_offset
 from .lights import escaped_radiance, light_is_area, sample_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
-from .samplers import DIM_BOUNCE0, DIM_PIXEL, DIM_TIME, sample_1d, sample_2d, sample_pixel_lens
+from .samplers import DIM_BOUNCE0, DIM_PIXEL, DIM_TIME, SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .shapes import surface
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, U, V, intersect1,
                     intersect16, new_packet16, new_ray_buffer, occluded1, occluded16, set_ray16)
@@ -86,13 +86,18 @@ def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
 @nb.njit(inline='always')
 def new_tile_scratch():
     """Per-thread scratch of `render_tile`: the camera packet, the first-hit shadow queue and the
-    per-lane state (allocated by `render_pass` once per tile; the shading code allocates nothing)."""
+    per-lane state, structure-of-arrays so that the camera stage's loops over the lanes vectorise
+    (allocated by `render_pass` once per tile; the shading code allocates nothing)."""
     cvalid, cf, cu = new_packet16()
     qvalid, qf, qu = new_packet16()
     queue = (qvalid, qf, qu, np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
              np.zeros((PACKET, 3)))
-    lanes = (np.zeros((PACKET, 3)), np.zeros((PACKET, 3)), np.zeros(PACKET), np.zeros((PACKET, 4), np.int64),
-             np.zeros((PACKET, 3)), np.zeros((PACKET, 4)))
+    # origins, directions (3, PACKET); times; (pixel, index, x, y); radiance (PACKET, 3); the samples of
+    # the pixel and lens pairs (4, PACKET); film positions (2, PACKET); pixel and index as uint32 and
+    # the Sobol' packet's scratch
+    lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros(PACKET), np.zeros((PACKET, 4), np.int64),
+             np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
+             np.zeros((6, PACKET), np.uint32))
     return (cvalid, cf, cu), queue, lanes
 
 
@@ -111,9 +116,10 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
     (Shading the first hits in stages, one short loop over the 16 lanes per stage - shading points,
     direct light, continuations - was measured: no gain, 0.98-1.02x.)"""
     cvalid, cf, cu = packet
-    lane_o, lane_d, lane_t, lane_id, lane_L, lane_u = lanes
+    lane_o, lane_d, lane_t, lane_id, lane_L, lane_u, lane_f, lane_pi, work = lanes
     ldir = queue[6]
     total = (x1 - x0) * (y1 - y0) * (s1 - s0)
+    n_pl = 4 if use_lens else 2
     # the next (pixel, sample) pair: sample `nidx` of pixel (nx, ny), advanced pixel-major (counters, not
     # three integer divisions per sample)
     nidx = s0
@@ -123,31 +129,16 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         n = min(PACKET, total - first)
         for j in range(PACKET):
             cvalid[j] = 0
-        # the packet's samples, then its rays: two short loops over independent lanes (the hashes
-        # of one lane overlap with the next lane's instead of waiting on the lens and camera math)
+        # the camera stage as loops over the lanes: which samples, their random numbers (Sobol':
+        # `sobol_packet`, vectorised), filter offsets, then the rays (`camera_rays`, vectorised)
         for j in range(n):
-            index = nidx
-            x = nx
-            y = ny
-            pixel = y * width + x
-            if use_lens:
-                a, b, lu, lv = sample_pixel_lens(sampler, seed, pixel, index, spp)
-            else:
-                a, b = sample_2d(sampler, seed, pixel, index, spp, DIM_PIXEL)
-                lu = 0.5
-                lv = 0.5
-            lane_u[j, 0] = a
-            lane_u[j, 1] = b
-            lane_u[j, 2] = lu
-            lane_u[j, 3] = lv
-            time = 0.0
-            if use_time:
-                time = sample_1d(sampler, seed, pixel, index, spp, DIM_TIME)
-            lane_t[j] = time
+            pixel = ny * width + nx
             lane_id[j, 0] = pixel
-            lane_id[j, 1] = index
-            lane_id[j, 2] = x
-            lane_id[j, 3] = y
+            lane_id[j, 1] = nidx
+            lane_id[j, 2] = nx
+            lane_id[j, 3] = ny
+            lane_pi[0, j] = pixel
+            lane_pi[1, j] = nidx
             nidx += 1
             if nidx == s1:
                 nidx = s0
@@ -155,23 +146,40 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 if nx == x1:
                     nx = x0
                     ny += 1
+        if sampler == SOBOL:
+            sobol_packet(seed, DIM_PIXEL, lane_pi[0], lane_pi[1], n, n_pl, work, lane_u)
+        else:
+            for j in range(n):
+                if use_lens:
+                    a, b, lu, lv = sample_pixel_lens(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp)
+                    lane_u[2, j] = lu
+                    lane_u[3, j] = lv
+                else:
+                    a, b = sample_2d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_PIXEL)
+                lane_u[0, j] = a
+                lane_u[1, j] = b
         for j in range(n):
-            fdx, fdy = filter_offset(filt, lane_u[j, 0], lane_u[j, 1])
-            time = lane_t[j]
-            o, d = generate_ray(cam, (lane_id[j, 2] + 0.5 + fdx) / width, (lane_id[j, 3] + 0.5 + fdy) / height,
-                                lane_u[j, 2], lane_u[j, 3], time)
-            set_ray16(cvalid, cf, cu, j, o[0], o[1], o[2], d[0], d[1], d[2], cam[C_NEAR], cam[C_FAR], time)
+            time = 0.0
+            if use_time:
+                time = sample_1d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_TIME)
+            lane_t[j] = time
+            fdx, fdy = filter_offset(filt, lane_u[0, j], lane_u[1, j])
+            lane_f[0, j] = (lane_id[j, 2] + 0.5 + fdx) / width
+            lane_f[1, j] = (lane_id[j, 3] + 0.5 + fdy) / height
+        camera_rays(cam, n, lane_f[0], lane_f[1], lane_u[2], lane_u[3], lane_t, lane_o, lane_d)
+        for j in range(n):
+            set_ray16(cvalid, cf, cu, j, lane_o[0, j], lane_o[1, j], lane_o[2, j], lane_d[0, j], lane_d[1, j],
+                      lane_d[2, j], cam[C_NEAR], cam[C_FAR], lane_t[j])
             if rec is not None:
-                _record(rec, tile, RAYS_CAMERA, o[0], o[1], o[2], d[0], d[1], d[2], cam[C_NEAR], cam[C_FAR], time)
+                _record(rec, tile, RAYS_CAMERA, lane_o[0, j], lane_o[1, j], lane_o[2, j], lane_d[0, j], lane_d[1, j],
+                        lane_d[2, j], cam[C_NEAR], cam[C_FAR], lane_t[j])
             for k in range(3):
-                lane_o[j, k] = o[k]
-                lane_d[j, k] = d[k]
                 ldir[j, k] = 0.0
         intersect16(scene, cvalid, cf)
         counts[RAYS_CAMERA] += n
         for j in range(n):
-            r, g, bl = trace_path(S, scene, (lane_o[j, 0], lane_o[j, 1], lane_o[j, 2]),
-                                  (lane_d[j, 0], lane_d[j, 1], lane_d[j, 2]), lane_t[j],
+            r, g, bl = trace_path(S, scene, (lane_o[0, j], lane_o[1, j], lane_o[2, j]),
+                                  (lane_d[0, j], lane_d[1, j], lane_d[2, j]), lane_t[j],
                                   (sampler, seed, lane_id[j, 0], lane_id[j, 1], spp), max_depth, f, u, m, m32, counts,
                                   rec, tile, cf, cu, j, queue, 0, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0))
             lane_L[j, 0] = r

@@ -236,6 +236,34 @@ def test_sample_pixel_lens_is_pairs_0_and_1(sampler):
         assert np.array_equal(fused, np.concatenate([a, b], 1))
 
 
+def test_sobol_packet_equals_the_scalar_sampler():
+    """The vectorised packet version returns, lane by lane, exactly the values of
+    `sample_pixel_lens` (n_dims 4), `sample_2d` (n_dims 2) and `sample_1d` (n_dims 1) for the
+    pixel/lens point and for later pairs: random seeds, pixels up to the 2^28-pixel limit, indices
+    up to 2^32 - 1, partial packets."""
+    rng = np.random.default_rng(5)
+    work = np.zeros((6, 16), np.uint32)
+    out = np.full((4, 16), -1.0)
+    cases = [(0, np.zeros(16, np.uint32), np.arange(16, dtype=np.uint32), 16),
+             (2**32 - 1, np.full(16, 2**28 - 1, np.uint32), np.full(16, 2**32 - 1, np.uint32), 16)]
+    for _ in range(300):
+        cases.append((int(rng.integers(0, 2**32)), rng.integers(0, 2**28, 16).astype(np.uint32),
+                      rng.integers(0, 2**32, 16, dtype=np.uint64).astype(np.uint32), int(rng.integers(1, 17))))
+    for seed, pix, idx, n in cases:
+        S.sobol_packet(seed, S.DIM_PIXEL, pix, idx, n, 4, work, out)
+        for j in range(n):
+            assert tuple(out[:, j]) == S.sample_pixel_lens(S.SOBOL, seed, int(pix[j]), int(idx[j]), 64)
+        for pair in (S.DIM_PIXEL, S.DIM_TIME, S.DIM_BOUNCE0 + 5):
+            out[:] = -1.0
+            S.sobol_packet(seed, pair, pix, idx, n, 2, work, out)
+            for j in range(n):
+                assert tuple(out[:2, j]) == S.sample_2d(S.SOBOL, seed, int(pix[j]), int(idx[j]), 64, pair)
+            assert np.all(out[:, n:] == -1.0) and np.all(out[2:] == -1.0)      # lanes and pairs not asked for
+            S.sobol_packet(seed, pair, pix, idx, n, 1, work, out)
+            for j in range(n):
+                assert out[0, j] == S.sample_1d(S.SOBOL, seed, int(pix[j]), int(idx[j]), 64, pair)
+
+
 # --------------------------------------------------------------------------- convergence
 R_DISK = 0.35
 BUMP_1D = math.sqrt(0.08 * math.pi) * math.erf(0.5 / math.sqrt(0.08))
