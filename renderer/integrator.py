@@ -84,18 +84,21 @@ def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
 
 
 @nb.njit(inline='always')
-def new_tile_scratch():
+def new_tile_scratch(n_lights):
     """Per-thread scratch of `render_tile`: the camera packet, the first-hit shadow queue and the
     per-lane state, structure-of-arrays so that the camera stage's loops over the lanes vectorise
     (allocated by `render_pass` once per tile; the shading code allocates nothing)."""
     cvalid, cf, cu = new_packet16()
     qvalid, qf, qu = new_packet16()
+    # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
+    # lane, and the first hit's light samples (pairs DIM_BOUNCE0 + k: rows 2k, 2k + 1), drawn for the
+    # whole packet by `sobol_packet` with the Sobol' sampler
     queue = (qvalid, qf, qu, np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
-             np.zeros((PACKET, 3)))
+             np.zeros((PACKET, 3)), np.zeros((2 * max(n_lights, 1), PACKET)))
     # origins, directions (3, PACKET); times; (pixel, index, x, y); radiance (PACKET, 3); the samples of
     # the pixel and lens pairs (4, PACKET); film positions (2, PACKET); pixel and index as uint32 and
     # the Sobol' packet's scratch
-    lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros(PACKET), np.zeros((PACKET, 4), np.int64),
+    lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((PACKET, 4), np.int64),
              np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
              np.zeros((6, PACKET), np.uint32))
     return (cvalid, cf, cu), queue, lanes
@@ -116,8 +119,11 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
     (Shading the first hits in stages, one short loop over the 16 lanes per stage - shading points,
     direct light, continuations - was measured: no gain, 0.98-1.02x.)"""
     cvalid, cf, cu = packet
-    lane_o, lane_d, lane_t, lane_id, lane_L, lane_u, lane_f, lane_pi, work = lanes
+    lane_o, lane_d, lane_ts, lane_id, lane_L, lane_u, lane_f, lane_pi, work = lanes
+    lane_t = lane_ts[0]
     ldir = queue[6]
+    lsamp = queue[7]
+    n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
     total = (x1 - x0) * (y1 - y0) * (s1 - s0)
     n_pl = 4 if use_lens else 2
     # the next (pixel, sample) pair: sample `nidx` of pixel (nx, ny), advanced pixel-major (counters, not
@@ -148,6 +154,11 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                     ny += 1
         if sampler == SOBOL:
             sobol_packet(seed, DIM_PIXEL, lane_pi[0], lane_pi[1], n, n_pl, work, lane_u)
+            if use_time:
+                sobol_packet(seed, DIM_TIME, lane_pi[0], lane_pi[1], n, 1, work, lane_ts)
+            for k in range(n_lights):
+                if light_is_area(S, k):
+                    sobol_packet(seed, DIM_BOUNCE0 + k, lane_pi[0], lane_pi[1], n, 2, work, lsamp[2 * k:2 * k + 2])
         else:
             for j in range(n):
                 if use_lens:
@@ -159,10 +170,10 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 lane_u[0, j] = a
                 lane_u[1, j] = b
         for j in range(n):
-            time = 0.0
-            if use_time:
-                time = sample_1d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_TIME)
-            lane_t[j] = time
+            if sampler != SOBOL:
+                lane_t[j] = sample_1d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_TIME) if use_time else 0.0
+            elif not use_time:
+                lane_t[j] = 0.0
             fdx, fdy = filter_offset(filt, lane_u[0, j], lane_u[1, j])
             lane_f[0, j] = (lane_id[j, 2] + 0.5 + fdx) / width
             lane_f[1, j] = (lane_id[j, 3] + 0.5 + fdy) / height
@@ -203,7 +214,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
 @nb.njit(**SHADING_JIT, inline='always')
 def _enqueue_shadow(scene, queue, lane, po, wi, smax, time, cr, cg, cb):
     """Queue a first-hit shadow ray whose unoccluded contribution (cr, cg, cb) goes to `lane`."""
-    qvalid, qf, qu, qlane, qc, qn, ldir = queue
+    qvalid, qf, qu, qlane, qc, qn, ldir, _ = queue
     n = qn[0]
     set_ray16(qvalid, qf, qu, n, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time)
     qlane[n] = lane
@@ -219,7 +230,7 @@ def _enqueue_shadow(scene, queue, lane, po, wi, smax, time, cr, cg, cb):
 def _flush_shadows(scene, queue):
     """Trace the queued shadow rays as one rtcOccluded16 packet; add the unoccluded contributions
     to their lanes' first-hit direct light."""
-    qvalid, qf, qu, qlane, qc, qn, ldir = queue
+    qvalid, qf, qu, qlane, qc, qn, ldir, _ = queue
     n = qn[0]
     if n == 0:
         return
@@ -266,7 +277,11 @@ def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, mod
         u1 = 0.5
         u2 = 0.5
         if light_is_area(S, k):
-            u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
+            if depth == 0 and sampler == SOBOL:      # drawn with the camera packet
+                u1 = queue[7][2 * k, lane]
+                u2 = queue[7][2 * k + 1, lane]
+            else:
+                u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
         wi, dist, E = sample_light(S, k, p, ns, u1, u2)
         if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
             continue
@@ -463,7 +478,7 @@ def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, 
         m = np.empty((3, 4))
         m32 = np.empty(12, np.float32)
         counts = np.zeros(N_COUNTERS, np.int64)
-        packet, queue, lanes = new_tile_scratch()
+        packet, queue, lanes = new_tile_scratch(S.li_type.shape[0])
         x0 = (tile % ntx) * TILE
         y0 = (tile // ntx) * TILE
         render_tile(S, scene, cam, x0, y0, min(x0 + TILE, width), min(y0 + TILE, height), width, height,
