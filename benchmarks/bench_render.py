@@ -11,13 +11,19 @@ Per scene (USD, or course XML compiled in memory with `rtc.cli.load_scene`):
 * rays traced by kind (camera, shadow, secondary: the integrator's per-tile counters) and the
   renderer's rate in Mrays/s;
 * the **bare-Embree replay**: the integrator's recording mode stores every ray of `--record-spp`
-  samples per pixel (origin, direction, tnear, tfar, time, kind); they are replayed in the same
+  samples per pixel, traced as one pass as in the passes of a long render (origin, direction, tnear,
+  tfar, time, kind: camera, first-hit shadow, deeper shadow, secondary); they are replayed in the same
   process with `renderer.trace.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
-  `occlude_rays16` (16-ray packets in recorded order).  The bare time of the full render is
-  sum_k N_k / rate_k over the kinds k, and **ratio = bare time / render time** (1.0 = the renderer
-  costs nothing but Embree).  Render and replays alternate in every round (the machine is shared and
-  noisy); medians over rounds are reported, ratios are medians of per-round ratios.  The replay time
-  is also the "tracing" share of the render; "shading" is the rest (sampling, shading, film);
+  `occlude_rays16` (16-ray packets in recorded order, i.e. the renderer's own packets for camera and
+  first-hit shadow rays).  The bare time of the full render is sum_k N_k / rate_k over the kinds k,
+  and **ratio = bare time / render time** (1.0 = the renderer costs nothing but Embree), against
+  three replays: *single* (every ray alone, `rtcIntersect1`/`rtcOccluded1`: the plain bare loop),
+  *as traced* (the kinds the renderer traces in packets - camera and first-hit shadow rays - as
+  packets, the others alone: the renderer's own Embree calls, so 1 - ratio is exactly its time outside
+  Embree) and *packets* (every kind in packets: the fastest Embree could trace these rays).  Render
+  and replays alternate in every round (the machine is shared and noisy); medians over rounds are
+  reported, ratios are medians of per-round ratios.  The as-traced replay time is the "tracing"
+  share of the render; "shading" is the rest (sampling, shading, film);
 * peak RSS (`resource.getrusage`, high-water mark of the process) after each phase;
 * `--scaling`: the same render with 1 and 2 numba threads, interleaved.
 """
@@ -38,12 +44,15 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from renderer import film as film_mod  # noqa: E402
-from renderer.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, R_DX, R_OX, R_TFAR,  # noqa: E402
-                                 R_TIME, R_TNEAR, new_ray_record)
+from renderer.filters import FILTER_NAMES  # noqa: E402
+from renderer.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, R_DX,  # noqa: E402
+                                 R_OX, R_TFAR, R_TIME, R_TNEAR, N_COUNTERS, TILE, new_ray_record, render_pass)
+from renderer.samplers import SAMPLER_NAMES  # noqa: E402
 from renderer.render import RenderOptions, Renderer  # noqa: E402
 from renderer.trace import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402
 
-KINDS = {'camera': RAYS_CAMERA, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
+KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
+PACKETED = ('camera', 'shadow0')            # the kinds the renderer itself traces in packets
 
 
 def peak_rss_mb() -> float:
@@ -59,9 +68,15 @@ def load(path: str):
 
 
 def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
-    """The rays of `spp` samples per pixel, by kind, each as float32 arrays in traced order."""
-    rec = new_ray_record(opts.width, opts.height, cap)
-    r.render(RenderOptions(**{**opts.__dict__, 'spp': spp}), ray_record=rec)
+    """The rays of samples [0, spp) of every pixel, traced as one pass (so that the packets hold 16
+    samples of one pixel, as in a long render's passes), by kind, each as float32 arrays in traced order."""
+    o = opts.resolved(r.desc.settings)
+    rec = new_ray_record(o.width, o.height, cap)
+    ctab, use_lens, use_time = r.camera(o)
+    ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
+    render_pass(r.built.data, r.built.handle, ctab, o.width, o.height, 0, spp, o.spp, SAMPLER_NAMES[o.sampler],
+                FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time, np.zeros((o.height, o.width, 3)),
+                np.zeros((ntiles, N_COUNTERS), np.int64), rec)
     rays, kind, count = rec
     if np.any(count > cap):
         print(f'  note: {int((count - cap).clip(0).sum())} rays beyond the record capacity were not recorded')
@@ -84,7 +99,7 @@ def replay(handle: int, kind: str, rays, packets: bool) -> float:
     if n == 0:
         return 0.0
     t0 = time.perf_counter()
-    if kind == 'shadow':
+    if kind.startswith('shadow'):
         (occlude_rays16 if packets else occlude_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.bool_))
     else:
         (trace_rays16 if packets else trace_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.float32),
@@ -114,7 +129,9 @@ def bench_scene(path: str, a) -> dict:
         for packets in (False, True):                                 # load/compile the replay kernels
             for kind, rk in rays.items():
                 replay(r.built.handle, kind, tuple(x[:64] for x in rk), packets)
-    render_s, first_s, ratio1, ratio16, bare1_s, res = [], [], [], [], [], None
+    render_s, first_s, res = [], [], None
+    ratios = {'single': [], 'traced': [], 'packets': []}
+    traced_s = []
     rates = {(k, p): [] for k in KINDS for p in (False, True)}
     for _ in range(a.rounds):
         res = r.render(opts)
@@ -122,27 +139,30 @@ def bench_scene(path: str, a) -> dict:
         first_s.append(res.stats.first_pass_seconds)
         if rays is None:
             continue
-        n_of = {'camera': res.stats.rays_camera, 'shadow': res.stats.rays_shadow,
-                'secondary': res.stats.rays_secondary}
-        bare = {False: 0.0, True: 0.0}
+        st = res.stats
+        n_of = {'camera': st.rays_camera, 'shadow0': st.rays_shadow_packet,
+                'shadow': st.rays_shadow - st.rays_shadow_packet, 'secondary': st.rays_secondary}
+        rate = {}
         for packets in (False, True):
             for kind, rk in rays.items():
                 if len(rk[0]):
-                    rate = len(rk[0]) / max(replay(r.built.handle, kind, rk, packets), 1e-12)
-                    rates[kind, packets].append(rate)
-                    bare[packets] += n_of[kind] / rate
-        bare1_s.append(bare[False])
-        ratio1.append(bare[False] / res.stats.seconds)
-        ratio16.append(bare[True] / res.stats.seconds)
+                    rate[kind, packets] = len(rk[0]) / max(replay(r.built.handle, kind, rk, packets), 1e-12)
+                    rates[kind, packets].append(rate[kind, packets])
+        bare = {name: sum(n_of[k] / rate[k, p(k)] for k in KINDS if (k, False) in rate)
+                for name, p in (('single', lambda k: False), ('traced', lambda k: k in PACKETED),
+                                ('packets', lambda k: True))}
+        for name in ratios:
+            ratios[name].append(bare[name] / res.stats.seconds)
+        traced_s.append(bare['traced'])
     st = res.stats
     row.update(first_pass_s=statistics.median(first_s), render_s=statistics.median(render_s),
                render_min_s=min(render_s), rays_camera=st.rays_camera, rays_shadow=st.rays_shadow,
-               rays_secondary=st.rays_secondary, rays=st.rays, bad_samples=st.bad_samples,
-               mrays_s=st.rays / statistics.median(render_s) / 1e6)
+               rays_shadow_packet=st.rays_shadow_packet, rays_secondary=st.rays_secondary, rays=st.rays,
+               bad_samples=st.bad_samples, mrays_s=st.rays / statistics.median(render_s) / 1e6)
     if rays is not None:
-        row.update(ratio_single=statistics.median(ratio1), ratio_packet=statistics.median(ratio16),
-                   tracing_s=statistics.median(bare1_s),
-                   shading_s=statistics.median(render_s) - statistics.median(bare1_s),
+        row.update(ratio_single=statistics.median(ratios['single']), ratio_traced=statistics.median(ratios['traced']),
+                   ratio_packet=statistics.median(ratios['packets']), tracing_s=statistics.median(traced_s),
+                   shading_s=statistics.median(render_s) - statistics.median(traced_s),
                    recorded={k: len(v[0]) for k, v in rays.items()},
                    bare_mrays={f'{k}{"16" if p else ""}': statistics.median(v) / 1e6
                                for (k, p), v in rates.items() if v})
@@ -170,14 +190,15 @@ def report(row: dict) -> None:
     print(f"  load {row['load_s']:.3f} s   build {row['build_s']:.3f} s   first call (kernel load/compile, 1 spp) "
           f"{row['warmup_s']:.2f} s   first pass {row['first_pass_s']:.3f} s   render {row['render_s']:.3f} s "
           f"(min {row['render_min_s']:.3f})   output {row['output_s']:.3f} s")
-    print(f"  rays: camera {row['rays_camera']}  shadow {row['rays_shadow']}  secondary {row['rays_secondary']}"
-          f"  total {row['rays']}   renderer {row['mrays_s']:.2f} Mrays/s")
+    print(f"  rays: camera {row['rays_camera']}  shadow {row['rays_shadow']} (first hit, in packets: "
+          f"{row['rays_shadow_packet']})  secondary {row['rays_secondary']}  total {row['rays']}   "
+          f"renderer {row['mrays_s']:.2f} Mrays/s")
     if 'ratio_single' in row:
         bare = '  '.join(f'{k} {v:.2f}' for k, v in row['bare_mrays'].items())
         print(f"  bare Embree replay (Mrays/s, recorded {row['recorded']}): {bare}")
         print(f"  tracing {row['tracing_s']:.3f} s  shading/sampling {row['shading_s']:.3f} s   "
               f"ratio renderer/bare: {row['ratio_single']:.2f} (single-ray replay)  "
-              f"{row['ratio_packet']:.2f} (packet replay)")
+              f"{row['ratio_traced']:.2f} (as traced)  {row['ratio_packet']:.2f} (packet replay)")
     if 'scaling' in row:
         print(f"  threads: 1 -> {row['render_1t_s']:.3f} s, 2 -> {row['render_2t_s']:.3f} s, "
               f"speed-up {row['scaling']:.2f}")
@@ -196,8 +217,8 @@ def main(argv=None) -> int:
     ap.add_argument('--max-depth', type=int, default=4)
     ap.add_argument('--threads', type=int, default=None)
     ap.add_argument('--rounds', type=int, default=3)
-    ap.add_argument('--record-spp', type=int, default=4, help='samples per pixel recorded for the replay')
-    ap.add_argument('--record-cap', type=int, default=4096, help='rays recorded per 8x8 tile at most')
+    ap.add_argument('--record-spp', type=int, default=16, help='samples per pixel recorded for the replay')
+    ap.add_argument('--record-cap', type=int, default=6144, help='rays recorded per 8x8 tile at most')
     ap.add_argument('--no-replay', action='store_true')
     ap.add_argument('--scaling', action='store_true', help='also time 1 vs 2 threads')
     a = ap.parse_args(argv)

@@ -41,9 +41,10 @@ from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TF
                     intersect16, new_packet16, new_ray_buffer, occluded1, occluded16, set_ray16)
 from .vecmath import SHADING_JIT, dot, normalize, offset_origin, onb, reflect
 
-# counters (per tile): rays by kind, and samples dropped as non-finite
-RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES = 0, 1, 2, 3
-N_COUNTERS = 4
+# counters (per tile): rays by kind, samples dropped as non-finite, and how many of the shadow rays were
+# first-hit ones traced in packets (also the ray record's kind for those)
+RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES, RAYS_SHADOW_PACKET = 0, 1, 2, 3, 4
+N_COUNTERS = 5
 # ray record fields (float32 columns of rec[0])
 R_OX, R_OY, R_OZ, R_DX, R_DY, R_DZ, R_TNEAR, R_TFAR, R_TIME = range(9)
 R_FIELDS = 9
@@ -58,7 +59,8 @@ def _dims_per_bounce(n_lights):
 
 def new_ray_record(width, height, rays_per_tile):
     """Arrays for recording up to `rays_per_tile` rays of every 8x8 tile: (rays float32
-    (n_tiles, cap, R_FIELDS), kind int8 (n_tiles, cap) = RAYS_CAMERA/SHADOW/SECONDARY,
+    (n_tiles, cap, R_FIELDS), kind int8 (n_tiles, cap) = RAYS_CAMERA, RAYS_SHADOW (traced alone),
+    RAYS_SHADOW_PACKET (first hit: traced in a packet) or RAYS_SECONDARY,
     count int64 (n_tiles,) = rays traced, including those beyond the capacity)."""
     ntiles = ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE)
     return (np.zeros((ntiles, rays_per_tile, R_FIELDS), np.float32),
@@ -98,7 +100,7 @@ def new_tile_scratch(n_lights):
     # origins, directions (3, PACKET); times; (pixel, index, x, y); radiance (PACKET, 3); the samples of
     # the pixel and lens pairs (4, PACKET); film positions (2, PACKET); pixel and index as uint32 and
     # the Sobol' packet's scratch
-    lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((PACKET, 4), np.int64),
+    lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((4, PACKET), np.int64),
              np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
              np.zeros((6, PACKET), np.uint32))
     return (cvalid, cf, cu), queue, lanes
@@ -139,10 +141,10 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         # `sobol_packet`, vectorised), filter offsets, then the rays (`camera_rays`, vectorised)
         for j in range(n):
             pixel = ny * width + nx
-            lane_id[j, 0] = pixel
-            lane_id[j, 1] = nidx
-            lane_id[j, 2] = nx
-            lane_id[j, 3] = ny
+            lane_id[0, j] = pixel
+            lane_id[1, j] = nidx
+            lane_id[2, j] = nx
+            lane_id[3, j] = ny
             lane_pi[0, j] = pixel
             lane_pi[1, j] = nidx
             nidx += 1
@@ -162,21 +164,22 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         else:
             for j in range(n):
                 if use_lens:
-                    a, b, lu, lv = sample_pixel_lens(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp)
+                    a, b, lu, lv = sample_pixel_lens(sampler, seed, lane_id[0, j], lane_id[1, j], spp)
                     lane_u[2, j] = lu
                     lane_u[3, j] = lv
                 else:
-                    a, b = sample_2d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_PIXEL)
+                    a, b = sample_2d(sampler, seed, lane_id[0, j], lane_id[1, j], spp, DIM_PIXEL)
                 lane_u[0, j] = a
                 lane_u[1, j] = b
         for j in range(n):
             if sampler != SOBOL:
-                lane_t[j] = sample_1d(sampler, seed, lane_id[j, 0], lane_id[j, 1], spp, DIM_TIME) if use_time else 0.0
+                lane_t[j] = sample_1d(sampler, seed, lane_id[0, j], lane_id[1, j], spp, DIM_TIME) if use_time else 0.0
             elif not use_time:
                 lane_t[j] = 0.0
-            fdx, fdy = filter_offset(filt, lane_u[0, j], lane_u[1, j])
-            lane_f[0, j] = (lane_id[j, 2] + 0.5 + fdx) / width
-            lane_f[1, j] = (lane_id[j, 3] + 0.5 + fdy) / height
+            lane_f[0, j], lane_f[1, j] = filter_offset(filt, lane_u[0, j], lane_u[1, j])
+        for j in range(n):                  # vectorised: film positions
+            lane_f[0, j] = (lane_id[2, j] + 0.5 + lane_f[0, j]) / width
+            lane_f[1, j] = (lane_id[3, j] + 0.5 + lane_f[1, j]) / height
         camera_rays(cam, n, lane_f[0], lane_f[1], lane_u[2], lane_u[3], lane_t, lane_o, lane_d)
         for j in range(n):
             set_ray16(cvalid, cf, cu, j, lane_o[0, j], lane_o[1, j], lane_o[2, j], lane_d[0, j], lane_d[1, j],
@@ -191,7 +194,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
         for j in range(n):
             r, g, bl = trace_path(S, scene, (lane_o[0, j], lane_o[1, j], lane_o[2, j]),
                                   (lane_d[0, j], lane_d[1, j], lane_d[2, j]), lane_t[j],
-                                  (sampler, seed, lane_id[j, 0], lane_id[j, 1], spp), max_depth, f, u, m, m32, counts,
+                                  (sampler, seed, lane_id[0, j], lane_id[1, j], spp), max_depth, f, u, m, m32, counts,
                                   rec, tile, cf, cu, j, queue, 0, (0.0, 0.0, 0.0), (1.0, 1.0, 1.0), (1.0, 1.0, 1.0))
             lane_L[j, 0] = r
             lane_L[j, 1] = g
@@ -202,8 +205,8 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
             g = lane_L[j, 1] + ldir[j, 1]
             bl = lane_L[j, 2] + ldir[j, 2]
             if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
-                x = lane_id[j, 2]
-                y = lane_id[j, 3]
+                x = lane_id[2, j]
+                y = lane_id[3, j]
                 accum[y, x, 0] += r
                 accum[y, x, 1] += g
                 accum[y, x, 2] += bl
@@ -294,8 +297,10 @@ def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, mod
             counts[RAYS_SHADOW] += 1
             smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
             if rec is not None:
-                _record(rec, tile, RAYS_SHADOW, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time)
+                _record(rec, tile, RAYS_SHADOW_PACKET if depth == 0 else RAYS_SHADOW, po[0], po[1], po[2], wi[0],
+                        wi[1], wi[2], 0.0, smax, time)
             if depth == 0:               # first hit: traced later, in a packet
+                counts[RAYS_SHADOW_PACKET] += 1
                 _enqueue_shadow(scene, queue, lane, po, wi, smax, time, tr * c[0], tg * c[1], tb * c[2])
                 continue
             if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
@@ -386,7 +391,8 @@ def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, 
     attenuation A = (ar, ag, ab) of the medium the ray travels in (1 = vacuum);
     smp = (sampler, seed, pixel, index, spp).  Bounce 0 is the camera ray, traced
     as lane `lane` of the packet (cf, cu); its direct light is not included: its shadow rays go to
-    `queue` (`_enqueue_shadow`).
+    `queue` (`_enqueue_shadow`).  (Tracing the first bounce's continuation rays of a packet as one
+    more packet was measured: no gain, 0.99-1.02x, at twice the compile time.)
     `rec`: None, or a ray record (`new_ray_record`) to which the rays of tile `tile` are appended."""
     n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
     per = _dims_per_bounce(n_lights)

@@ -20,7 +20,8 @@ from .build import build
 from .cameras import C_LENS, camera_table
 from .film import Film
 from .filters import FILTER_NAMES
-from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, render_pass
+from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, TILE,
+                         render_pass)
 from .samplers import SAMPLER_NAMES
 
 MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
@@ -84,6 +85,7 @@ class RenderStats:
     kernel_seconds: float = 0.0       # loading (or, on the first run, compiling) the numba kernel
     rays_camera: int = 0
     rays_shadow: int = 0
+    rays_shadow_packet: int = 0       # of rays_shadow: first-hit shadow rays, traced in 16-ray packets
     rays_secondary: int = 0
     bad_samples: int = 0
     passes: list = field(default_factory=list)      # (spp_end, seconds)
@@ -132,6 +134,17 @@ class Renderer:
     def __exit__(self, *exc):
         self.close()
 
+    def camera(self, o: RenderOptions):
+        """(camera table, use_lens, use_time) of a render with resolved options `o`: the lens and the
+        shutter are used only if the camera and the scene need them and the options allow them."""
+        cam = self.desc.camera
+        use_lens = o.depth_of_field and cam.lens_radius > 0 and not self.desc.settings.disable_depth_of_field
+        use_time = (o.motion_blur and not self.desc.settings.disable_motion_blur
+                    and (self.built.motion_steps > 1 or cam.motion is not None))
+        ctab = camera_table(cam, o.width, o.height, self.built.origin, depth_of_field=use_lens,
+                            motion_blur=use_time)
+        return ctab, bool(ctab[C_LENS] > 0), use_time
+
     def render(self, options: RenderOptions, *, film: Film | None = None, should_stop=lambda: False,
                on_pass=None, ray_record=None) -> RenderResult:
         """Render until `options.spp` samples per pixel (continuing `film` if given) or until
@@ -139,13 +152,7 @@ class Renderer:
         `ray_record`: None, or `integrator.new_ray_record(width, height, cap)` to store the rays
         traced (benchmarks)."""
         o = options.resolved(self.desc.settings)
-        cam = self.desc.camera
-        use_lens = o.depth_of_field and cam.lens_radius > 0 and not self.desc.settings.disable_depth_of_field
-        use_time = (o.motion_blur and not self.desc.settings.disable_motion_blur
-                    and (self.built.motion_steps > 1 or cam.motion is not None))
-        ctab = camera_table(cam, o.width, o.height, self.built.origin, depth_of_field=use_lens,
-                            motion_blur=use_time)
-        use_lens = bool(ctab[C_LENS] > 0)
+        ctab, use_lens, use_time = self.camera(o)
         if film is None:
             film = Film(o.width, o.height)
         elif (film.width, film.height) != (o.width, o.height):
@@ -184,6 +191,7 @@ class Renderer:
             tot = counters.sum(0)
             stats.rays_camera, stats.rays_shadow = int(tot[RAYS_CAMERA]), int(tot[RAYS_SHADOW])
             stats.rays_secondary, stats.bad_samples = int(tot[RAYS_SECONDARY]), int(tot[BAD_SAMPLES])
+            stats.rays_shadow_packet = int(tot[RAYS_SHADOW_PACKET])
             stats.seconds = _time.perf_counter() - t_start
             if on_pass is not None:
                 on_pass(result)
