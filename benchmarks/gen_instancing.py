@@ -147,6 +147,7 @@ def write_point_instancer_mesh(n: int, path: str, tris: int = 100_000) -> None:
     light = UsdLux.DistantLight.Define(stage, '/World/Sun')
     light.CreateIntensityAttr(3.0)
     light.CreateAngleAttr(2.0)
+    light.CreateNormalizeAttr(True)          # irradiance 3 whatever the angle (un-normalised: 3 pi sin^2(1 deg))
     UsdGeom.Xformable(light).AddRotateXYZOp().Set(Gf.Vec3f(-50, 30, 0))
     ground = UsdGeom.Mesh.Define(stage, '/World/Ground')
     ground.CreatePointsAttr([(-150, 0, -150), (150, 0, -150), (150, 0, 150), (-150, 0, 150)])
@@ -164,9 +165,12 @@ def write_point_instancer_mesh(n: int, path: str, tris: int = 100_000) -> None:
     pos = np.zeros((n, 3), np.float32)
     pos[:, [0, 2]] = rng.uniform(-100, 100, (n, 2))
     yaw = rng.uniform(0, np.pi, n)
-    q = np.zeros((n, 4), np.float32)                 # (real, i, j, k): rotation about +y
-    q[:, 0] = np.cos(yaw)
-    q[:, 2] = np.sin(yaw)
+    # rotation about +y by 2 yaw.  Vt.QuatfArray.FromNumpy takes GfQuatf's memory layout, (i, j, k, real):
+    # (real, i, j, k) columns gave a half-turn about a horizontal axis that buried every torus under the
+    # ground (benchmarks before 2026-12-01 rendered the ground alone)
+    q = np.zeros((n, 4), np.float32)
+    q[:, 3] = np.cos(yaw)
+    q[:, 1] = np.sin(yaw)
     s = np.float32(0.35 * 200.0 / np.sqrt(n))
     pi.CreateProtoIndicesAttr(Vt.IntArray.FromNumpy(np.zeros(n, np.int32)))
     pi.CreatePositionsAttr(Vt.Vec3fArray.FromNumpy(pos))

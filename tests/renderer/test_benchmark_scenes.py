@@ -1,0 +1,30 @@
+"""The generated benchmark scenes are what they claim to be (a benchmark of an invisible scene measures
+nothing): the PointInstancer of benchmarks/gen_instancing.py stands its tori upright on the ground,
+turned about +y only, and they are seen and lit."""
+import sys
+from pathlib import Path
+
+import numpy as np
+from pxr import Usd, UsdGeom
+
+from renderer.render import RenderOptions, render
+from renderer.stage_reader import read_stage
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'benchmarks'))
+import gen_instancing  # noqa: E402
+
+
+def test_point_instancer_tori_stand_upright_and_are_visible(tmp_path):
+    path = str(tmp_path / 'pim.usda')
+    gen_instancing.write_point_instancer_mesh(16, path, tris=400)
+    stage = Usd.Stage.Open(path)
+    pi = UsdGeom.PointInstancer(stage.GetPrimAtPath('/World/Scatter'))
+    xf = np.array(pi.ComputeInstanceTransformsAtTime(Usd.TimeCode.Default(), Usd.TimeCode.Default()))
+    s = 0.35 * 200.0 / 4.0
+    assert xf.shape == (16, 4, 4)
+    assert np.allclose(xf[:, 1, :3], [0.0, s, 0.0], rtol=1e-6)            # y axis kept: upright, no flip
+    assert np.allclose(np.linalg.det(xf[:, :3, :3]), s ** 3, rtol=1e-5)     # rotations, no mirror
+    desc = read_stage(path)
+    img = render(desc, RenderOptions(width=48, height=36, spp=2)).image
+    red = (img[..., 0] > 1.5 * img[..., 1]) & (img[..., 0] > 0.05)          # the red tori, lit
+    assert 0.05 < red.mean() < 0.95
