@@ -2,7 +2,7 @@
 
 Optional peer benchmark, never part of the test suite.  Setup (once per machine):
 
-    /work/venv/bin/pip install -e '.[bench]'          # mitsuba 3.9.1
+    .venv/bin/pip install -e '.[bench]'               # mitsuba 3.9.1
     apt-get install -y libllvm19                       # Dr.Jit's llvm_ad_rgb backend (Debian 12's LLVM 15 aborts)
     python benchmarks/bench_mitsuba.py --width 320 --height 240 --ref-spp 1024
 
