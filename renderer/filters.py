@@ -13,8 +13,8 @@ Filters (all separable, f(x, y) = f1(x) f1(y)):
 * ``tent``: radius 1, f1(x) = 1 - |x|; exact inverse CDF.
 * ``gaussian``: sigma 0.5, truncated at radius 1.5 (3 sigma); f1(x) = exp(-x^2 / (2 sigma^2)) on
   [-1.5, 1.5].  The truncated CDF is inverted by cubic Hermite interpolation of a 4097-entry
-  table of the inverse CDF (bisection on ``math.erf`` at import) and its derivative 1 / pdf,
-  polished by one Newton step on the exact CDF: accurate to ~1e-12 in u.
+  table of the inverse CDF (bisection on ``math.erf`` at import) and its derivative 1 / pdf:
+  accurate to ~1e-8 in u.
 """
 from __future__ import annotations
 
