@@ -101,7 +101,10 @@ def _concentric_disk(u, v):
 @nb.njit(**_JIT)
 def generate_ray(cam, fx, fy, lens_u, lens_v, time):
     """Ray for film position (fx, fy) in [0,1]^2 (x right, y down, as image pixels), a lens sample and
-    a shutter time in [0,1].  Returns origin and unit direction in camera-relative world space."""
+    a shutter time in [0,1].  Returns origin and unit direction in camera-relative world space.
+    The renderer traces packets with `camera_rays`, which computes these rays for 16 lanes at once in
+    branch-free, vectorised loops and is tested against this function bit for bit (a shared
+    implementation measured 1.5 % slower in the packet kernel)."""
     sx = (2.0 * fx - 1.0) * cam[C_HALF_W] + cam[C_OFF_X]
     sy = (1.0 - 2.0 * fy) * cam[C_HALF_H] + cam[C_OFF_Y]
     if cam[C_ORTHO] != 0.0:
