@@ -27,7 +27,6 @@ import numba
 import numpy as np
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def import_copy(tree: Path, name: str):
@@ -37,8 +36,9 @@ def import_copy(tree: Path, name: str):
     link = dst / name
     if not link.exists():
         link.symlink_to((tree / 'renderer').resolve(), target_is_directory=True)
-    sys.path.insert(0, str(dst))
-    return importlib.import_module(name + '.render')
+    sys.path.insert(0, str(dst))            # the baseline's own copy, imported under another name
+    layered = (tree / 'renderer' / 'host' / 'render.py').exists()      # the layout since the rtc namespace
+    return importlib.import_module(name + ('.host.render' if layered else '.render'))
 
 
 def base_tree(rev: str) -> Path:
@@ -59,7 +59,7 @@ def load(path: str):
     if path.lower().endswith('.xml'):
         from rtc.cli import load_scene
         return load_scene(path, quiet=True)
-    from renderer.stage_reader import read_stage
+    from rtc.renderer.usd.stage import read_stage
     return read_stage(path)
 
 
@@ -82,7 +82,7 @@ def main(argv=None) -> int:
 
     tree = Path(a.base_tree) if a.base_tree else base_tree(a.base)
     base = import_copy(tree, 'rtc_ab_base')
-    new = importlib.import_module('renderer.render')
+    new = importlib.import_module('rtc.renderer.host.render')
     numba.set_num_threads(a.threads)
     print(f'base {a.base_tree or a.base} vs working tree; {a.width}x{a.height}, {a.spp} spp, {a.sampler}/{a.filter}, '
           f'max depth {a.max_depth}, {a.threads} thread(s), {a.rounds} rounds', flush=True)

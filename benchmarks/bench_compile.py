@@ -25,15 +25,14 @@ import numpy as np
 from pxr import Sdf
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
 
-from compiler import api  # noqa: E402
-from compiler.api import compile_file  # noqa: E402
-from compiler.bounds import check_transforms, world_bounds  # noqa: E402
-from compiler.diagnostics import Diagnostics  # noqa: E402
-from compiler.obj import load_obj  # noqa: E402
-from compiler.usd_writer import AssetPlan, RenderOptions, write_scene  # noqa: E402
-from compiler.xml_reader import read_scene  # noqa: E402
+from rtc.compiler import api  # noqa: E402
+from rtc.compiler.api import compile_file  # noqa: E402
+from rtc.compiler.bounds import check_transforms, world_bounds  # noqa: E402
+from rtc.compiler.diagnostics import Diagnostics  # noqa: E402
+from rtc.compiler.obj import load_obj  # noqa: E402
+from rtc.compiler.usd_writer import AssetPlan, RenderOptions, write_scene  # noqa: E402
+from rtc.compiler.xml_reader import read_scene  # noqa: E402
 
 DRAGON = REPO.parent / "shared" / "corpus" / "course" / "scenes_B" / "objFiles" / "dragon.obj"
 

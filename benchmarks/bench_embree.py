@@ -1,4 +1,4 @@
-"""Bare Embree throughput through renderer.trace: the baseline the renderer is compared with.
+"""Bare Embree throughput through rtc.renderer.kernel.trace: the baseline the renderer is compared with.
 
 Scene: one instance array of 400 instances (20 x 20 grid, random yaw, scale 0.4) of a 64 770-triangle
 UV sphere - the scene of /work/shared/embree.md section 8.  Ray sets:
@@ -24,7 +24,6 @@ import time
 import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-sys.path.insert(0, ROOT)
 
 KERNELS = ("trace_rays", "trace_rays16", "occlude_rays", "occlude_rays16")
 
@@ -38,7 +37,7 @@ def uv_sphere(n: int):
 
 
 def build_scene(device, rng, robust):
-    from renderer.embree import InstanceGroup
+    from rtc.renderer.host.embree import InstanceGroup
     proto = device.prototype_scene([uv_sphere(128)], [], robust=robust)
     gx, gz = np.meshgrid(np.arange(-10, 10), np.arange(-10, 10), indexing="ij")
     yaw = rng.uniform(0, 2 * np.pi, gx.size)
@@ -82,8 +81,8 @@ def shadow_rays(primary, t, light=(3.0, 8.0, 2.0)):
 
 
 def throughput(rounds: int):
-    from renderer import trace
-    from renderer.embree import Device
+    from rtc.renderer.kernel import trace
+    from rtc.renderer.host.embree import Device
     rng = np.random.default_rng(0)
     with Device() as device:
         scenes = {robust: build_scene(device, rng, robust) for robust in (True, False)}
@@ -122,10 +121,9 @@ def throughput(rounds: int):
 JIT_PROBE = """
 import time, sys
 start = time.perf_counter()
-sys.path.insert(0, {root!r})
 import numpy as np
-from renderer import trace
-from renderer.embree import Device, InstanceGroup
+from rtc.renderer.kernel import trace
+from rtc.renderer.host.embree import Device, InstanceGroup
 imported = time.perf_counter()
 with Device() as dev:
     proto = dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)])

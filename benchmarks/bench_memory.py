@@ -18,14 +18,11 @@ import tempfile
 from pathlib import Path
 
 REPO = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(REPO))
-sys.path.insert(0, str(REPO / 'benchmarks'))
 
 CHILD = r'''
 import json, resource, sys, time
-sys.path.insert(0, {repo!r})
-from renderer.stage_reader import read_stage
-from renderer.render import Renderer, RenderOptions
+from rtc.renderer.usd.stage import read_stage
+from rtc.renderer.host.render import Renderer, RenderOptions
 def rss():
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 out = {{}}
@@ -51,7 +48,7 @@ def measure(usd: Path, width: int, height: int, spp: int) -> dict:
 
 def main() -> None:
     from bench_compile import mesh_file, scene_file
-    from compiler import api
+    from rtc.compiler import api
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument('--counts', type=int, nargs='+', default=[1, 100000])
     ap.add_argument('--width', type=int, default=320)

@@ -32,7 +32,6 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 TORUS_TRIS = 20_000
 GRID = 5
@@ -147,8 +146,8 @@ class Rtc:
     name = 'rtc'
 
     def __init__(self, width, height, dof):
-        from renderer.render import RenderOptions, Renderer
-        from renderer.stage_reader import read_stage
+        from rtc.renderer.host.render import RenderOptions, Renderer
+        from rtc.renderer.usd.stage import read_stage
         self.opts = dict(width=width, height=height, sampler='sobol', filter='box', max_depth=0)
         self.RenderOptions = RenderOptions
         self.r = Renderer(read_stage(rtc_stage(width, height, dof), camera_path='/World/Camera'))

@@ -13,7 +13,7 @@ Per scene (USD, or course XML compiled in memory with `rtc.cli.load_scene`):
 * the **bare-Embree replay**: the integrator's recording mode stores every ray of `--record-spp`
   samples per pixel, traced as one pass as in the passes of a long render (origin, direction, tnear,
   tfar, time, kind: camera, first-hit shadow, deeper shadow, secondary); they are replayed in the same
-  process with `renderer.trace.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
+  process with `rtc.renderer.kernel.trace.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
   `occlude_rays16` (16-ray packets in recorded order, i.e. the renderer's own packets for camera and
   first-hit shadow rays).  The bare time of the full render is sum_k N_k / rate_k over the kinds k,
   and **ratio = bare time / render time** (1.0 = the renderer costs nothing but Embree), against
@@ -41,15 +41,14 @@ from pathlib import Path
 import numba
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
-from renderer import film as film_mod  # noqa: E402
-from renderer.filters import FILTER_NAMES  # noqa: E402
-from renderer.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, R_DX,  # noqa: E402
+from rtc.renderer.host import film as film_mod  # noqa: E402
+from rtc.renderer.kernel.filters import FILTER_NAMES  # noqa: E402
+from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, R_DX,  # noqa: E402
                                  R_OX, R_TFAR, R_TIME, R_TNEAR, N_COUNTERS, TILE, new_ray_record, render_pass)
-from renderer.samplers import SAMPLER_NAMES  # noqa: E402
-from renderer.render import RenderOptions, Renderer  # noqa: E402
-from renderer.trace import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402
+from rtc.renderer.kernel.samplers import SAMPLER_NAMES  # noqa: E402
+from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
+from rtc.renderer.kernel.trace import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402
 
 KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
 PACKETED = ('camera', 'shadow0')            # the kinds the renderer itself traces in packets
@@ -63,7 +62,7 @@ def load(path: str):
     if path.lower().endswith('.xml'):
         from rtc.cli import load_scene
         return load_scene(path, quiet=True)
-    from renderer.stage_reader import read_stage
+    from rtc.renderer.usd.stage import read_stage
     return read_stage(path)
 
 

@@ -1,4 +1,4 @@
-"""Write large instancing stages for timing `renderer.stage_reader.read_stage`, and time it.
+"""Write large instancing stages for timing `rtc.renderer.usd.stage.read_stage`, and time it.
 
     python benchmarks/gen_instancing.py native 100000 /tmp/native_1e5.usdc
     python benchmarks/gen_instancing.py pi 1000000 /tmp/pi_1e6.usdc
@@ -183,7 +183,7 @@ _TIMER = r"""
 import sys, time
 sys.path.insert(0, sys.argv[1])
 from pxr import Usd
-from renderer.stage_reader import read_stage
+from rtc.renderer.usd.stage import read_stage
 w, c = time.perf_counter, time.process_time
 t, tc = w(), c()
 if sys.argv[3] == 'total':

@@ -29,7 +29,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def _debug_cache_dir() -> str:
@@ -174,12 +173,12 @@ def main(argv=None) -> int:
     ap.add_argument('--by', choices=('line', 'file', 'function'), default='line')
     a = ap.parse_args(argv)
 
-    from renderer.render import RenderOptions, Renderer
+    from rtc.renderer.host.render import RenderOptions, Renderer
     if a.scene.lower().endswith('.xml'):
         from rtc.cli import load_scene
         desc = load_scene(a.scene, quiet=True)
     else:
-        from renderer.stage_reader import read_stage
+        from rtc.renderer.usd.stage import read_stage
         desc = read_stage(a.scene)
     numba.set_num_threads(a.threads)
     opts = RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler=a.sampler, filter=a.filter,

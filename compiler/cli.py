@@ -1,4 +1,4 @@
-"""`rtc compile`: the command-line face of compiler.api (registered by rtc/cli.py).
+"""`rtc compile`: the command-line face of rtc.compiler.api (registered by rtc/cli.py).
 
 Exit status: 0 = compiled (warnings allowed), 1 = warnings only and --strict (nothing written),
 2 = errors (nothing written).  Diagnostics go to stderr, one per line, compiler style.

@@ -13,8 +13,8 @@ from pathlib import Path
 def _kernel_cache_dir() -> str:
     here = Path(__file__).resolve().parent
     digest = hashlib.sha256()
-    for source in sorted(here.glob('*.py')):
-        digest.update(source.name.encode())
+    for source in sorted(here.rglob('*.py')):
+        digest.update(source.relative_to(here).as_posix().encode())
         digest.update(source.read_bytes())
     base = Path(os.environ.get('XDG_CACHE_HOME') or Path.home() / '.cache') / 'rtc' / 'numba'
     return str(base / digest.hexdigest()[:16])

@@ -1,7 +1,7 @@
 """What the renderer sees of a scene: plain data, no pxr, no Embree.
 
-`renderer.stage_reader.read_stage()` turns a composed USD stage into a `SceneDescription`;
-`renderer.build` turns the description into Embree scenes and numba tables.  Everything
+`rtc.renderer.usd.stage.read_stage()` turns a composed USD stage into a `SceneDescription`;
+`rtc.renderer.host.build` turns the description into Embree scenes and numba tables.  Everything
 downstream of the stage reader depends only on this module (and numpy).
 
 Conventions

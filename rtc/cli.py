@@ -35,15 +35,15 @@ def _fail(message: str, code: int = EXIT_ERROR):
 
 def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, time=None, quiet=False):
     """A SceneDescription from a USD file, or from a course XML file compiled in memory."""
-    from renderer.errors import SceneError
-    from renderer.stage_reader import read_stage
+    from .renderer.errors import SceneError
+    from .renderer.usd.stage import read_stage
     p = Path(path)
     if not p.exists():
         _fail(f'{path}: no such file')
     source = path
     if p.suffix.lower() == '.xml':
-        from compiler.api import compile_to_stage
-        from compiler.diagnostics import CompileError
+        from .compiler.api import compile_to_stage
+        from .compiler.diagnostics import CompileError
         try:
             stage, diags = compile_to_stage(path, width=width, height=height, spp=spp)
         except CompileError as e:
@@ -105,9 +105,9 @@ class _StopFlag:
 def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
                checkpoint, resume, quiet):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
-    from renderer import film as film_mod
-    from renderer.progress import Progress, summary_line
-    from renderer.render import RenderError, RenderOptions, Renderer
+    from .renderer.host import film as film_mod
+    from .renderer.host.progress import Progress, summary_line
+    from .renderer.host.render import RenderError, RenderOptions, Renderer
 
     out = Path(output)
     formats = {**film_mod.LINEAR_FORMATS, **film_mod.SRGB_FORMATS}
@@ -195,15 +195,15 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
 @click.option('--time', 'time_code', type=float, help='Time code (default: the stage start time).')
 def info_cmd(scene, camera, time_code):
     """Print what the renderer sees in SCENE: prototypes, instances, triangles, lights, materials."""
-    from renderer.info import describe
+    from .renderer.host.info import describe
     desc = load_scene(scene, camera=camera, time=time_code, quiet=True)
     click.echo(describe(desc))
 
 
 def _register_subcommands():
     """Sub-commands that live in their own modules."""
-    from compiler.cli import compile_cmd
-    from rtc.converge_cmd import converge_cmd
+    from .compiler.cli import compile_cmd
+    from .converge_cmd import converge_cmd
     main.add_command(compile_cmd)
     main.add_command(converge_cmd)
 

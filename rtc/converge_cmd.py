@@ -1,4 +1,4 @@
-"""`rtc converge`: speed against error of the samplers on one scene (front end of renderer.converge).
+"""`rtc converge`: speed against error of the samplers on one scene (front end of rtc.renderer.host.converge).
 
     rtc converge scenes/gallery.xml --width 160 --max-spp 64 --seeds 4 -o benchmarks/converge/gallery
 
@@ -53,10 +53,10 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
                  reference_sampler, no_cache, width, height, filter_, max_depth, threads, metric, fit_from, quiet):
     """Error (RMSE and relMSE against a reference) of SCENE rendered at 1, 2, 4, ... --max-spp samples
     per pixel with each sampler, against spp and against wall-clock seconds."""
-    from renderer import converge as C
-    from renderer.film import FilmError, read_image
-    from renderer.render import RenderError, RenderOptions
-    from rtc.cli import load_scene
+    from .renderer.host import converge as C
+    from .renderer.host.film import FilmError, read_image
+    from .renderer.host.render import RenderError, RenderOptions
+    from .cli import load_scene
 
     names = [s.strip() for s in samplers.split(',') if s.strip()]
     bad = [s for s in names if s not in C.SAMPLERS]

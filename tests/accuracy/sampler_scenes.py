@@ -17,13 +17,12 @@ from pathlib import Path
 
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / 'renderer'))
 
-from renderer import description as D                               # noqa: E402
-from renderer.converge import SAMPLERS, measure, render_reference, slopes, spp_sequence, summarize  # noqa: E402
-from renderer.render import RenderOptions, Renderer                   # noqa: E402
+from rtc.renderer import description as D  # noqa: E402
+from rtc.renderer.host.converge import SAMPLERS, measure, render_reference, slopes, spp_sequence, summarize  # noqa: E402
+from rtc.renderer.host.render import RenderOptions, Renderer                   # noqa: E402
 
-from handmade import look_at, ortho_down, quad, rect_light, scene, static_instances, translate  # noqa: E402
+from tests.renderer.handmade import look_at, ortho_down, quad, rect_light, scene, static_instances, translate  # noqa: E402
 
 GLOW = D.Material('/glow', model=D.PREVIEW_SURFACE, diffuse=(0, 0, 0), emission=(1.0, 1.0, 1.0))
 LAMBERT = D.Material('/lambert', model=D.LAMBERTIAN, diffuse=(0.7, 0.7, 0.7))

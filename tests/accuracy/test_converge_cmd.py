@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from click.testing import CliRunner
 
-from renderer import converge as C
+from rtc.renderer.host import converge as C
 from rtc.converge_cmd import converge_cmd
 
 SOFT_SHADOW_XML = """<?xml version="1.0" encoding="UTF-8" ?>

@@ -16,10 +16,10 @@ import math
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.render import RenderOptions, render
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
 
-from handmade import look_at, scene, static_instances, translate
+from tests.renderer.handmade import look_at, scene, static_instances, translate
 
 N = 96                   # image side, pixels
 HALF_W = 0.5             # film half width at distance 1 (focal length 1, aperture 1)

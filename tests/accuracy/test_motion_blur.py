@@ -10,10 +10,10 @@ pixel of expected value p has standard deviation sqrt(p (1 - p) / spp) with inde
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.render import RenderOptions, render
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
 
-from handmade import ortho_down, quad, scene, translate
+from tests.renderer.handmade import ortho_down, quad, scene, translate
 
 N, WIDTH = 64, 4.0
 E0, DIST = -1.0, 1.5

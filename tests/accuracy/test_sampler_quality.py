@@ -8,7 +8,7 @@ Renders are deterministic for a given seed, so these measurements are reproducib
 """
 import pytest
 
-from sampler_scenes import measure_scene
+from tests.accuracy.sampler_scenes import measure_scene
 
 
 def test_cmj_beats_independent_on_a_penumbra_quick():

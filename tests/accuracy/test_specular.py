@@ -5,12 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.materials import fresnel_dielectric, refract
-from renderer.render import RenderOptions, render
-from renderer.vecmath import reflect
+from rtc.renderer import description as D
+from rtc.renderer.kernel.materials import fresnel_dielectric, refract
+from rtc.renderer.host.render import RenderOptions, render
+from rtc.renderer.kernel.vecmath import reflect
 
-from handmade import scene
+from tests.renderer.handmade import scene
 
 
 def fresnel_angles(theta_i, n1, n2):

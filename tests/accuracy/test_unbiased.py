@@ -7,12 +7,12 @@ formula (tests/renderer/test_integrator.py), averaged over each pixel by a fine 
 import numpy as np
 import pytest
 
-import test_integrator as ti
-from renderer import description as D
-from renderer.converge import fit_slope
-from renderer.render import RenderOptions, Renderer
+from tests.renderer import test_integrator as ti
+from rtc.renderer import description as D
+from rtc.renderer.host.converge import fit_slope
+from rtc.renderer.host.render import RenderOptions, Renderer
 
-from handmade import ortho_down, quad, rect_light, scene
+from tests.renderer.handmade import ortho_down, quad, rect_light, scene
 
 N, WIDTH, H, A, B, LR = 24, 4.0, 1.0, 1.2, 0.8, 2.0
 SEEDS = 256

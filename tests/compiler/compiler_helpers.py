@@ -7,7 +7,7 @@ from pathlib import Path
 from click.testing import CliRunner
 from pxr import UsdValidation
 
-from compiler.cli import compile_cmd
+from rtc.compiler.cli import compile_cmd
 
 REPO = Path(__file__).resolve().parents[2]
 SCENES = REPO / "scenes"

@@ -5,7 +5,7 @@ from pathlib import Path
 
 import pytest
 
-from compiler_helpers import CORPUS
+from tests.compiler.compiler_helpers import CORPUS
 
 
 @pytest.fixture(scope="session")

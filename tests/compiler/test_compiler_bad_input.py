@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from compiler_helpers import run_compile, write_scene
+from tests.compiler.compiler_helpers import run_compile, write_scene
 
 SPHERE = '<shape name="s" type="sphere"><shader ref="grey"/><center>{c}</center><radius>{r}</radius>{x}</shape>'
 

@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from compiler_helpers import run_compile, write_scene
+from tests.compiler.compiler_helpers import run_compile, write_scene
 
 DOCTYPE_ERROR = ("2: error: a <!DOCTYPE> is not allowed in a scene file (entity declarations could expand "
                  "without bound or read other files)")

@@ -4,9 +4,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from compiler.obj import ObjError, load_obj
+from rtc.compiler.obj import ObjError, load_obj
 
-from compiler_helpers import CORPUS
+from tests.compiler.compiler_helpers import CORPUS
 
 
 def _obj(tmp_path, text):

@@ -7,11 +7,11 @@ import numpy as np
 import pytest
 from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
 
-from compiler.api import compile_to_stage
-from compiler.diagnostics import Diagnostics
-from compiler.transforms import compose
-from compiler.xml_reader import read_scene
-from compiler_helpers import SCENES
+from rtc.compiler.api import compile_to_stage
+from rtc.compiler.diagnostics import Diagnostics
+from rtc.compiler.transforms import compose
+from rtc.compiler.xml_reader import read_scene
+from tests.compiler.compiler_helpers import SCENES
 
 ROUND_TRIP = ["ellipsoids", "bunnies", "shaders", "gallery", "motion", "dof", "cylinder", "orthographic"]
 

@@ -6,9 +6,9 @@ import time
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from compiler.api import compile_to_stage
-from compiler.usd_writer import _Names
-from compiler_helpers import write_scene
+from rtc.compiler.api import compile_to_stage
+from rtc.compiler.usd_writer import _Names
+from tests.compiler.compiler_helpers import write_scene
 
 
 def test_repeated_names_get_counted_suffixes():

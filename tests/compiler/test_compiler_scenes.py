@@ -4,9 +4,9 @@ from __future__ import annotations
 import pytest
 from pxr import Usd
 
-from compiler.api import compile_file, compile_to_stage
+from rtc.compiler.api import compile_file, compile_to_stage
 
-from compiler_helpers import SCENES, validation_errors
+from tests.compiler.compiler_helpers import SCENES, validation_errors
 
 GALLERY = sorted(SCENES.glob("*.xml"))
 

@@ -8,7 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from compiler.transforms import (Op, adjugate_and_determinant, compose, compose_many, conditioning_problem,
+from rtc.compiler.transforms import (Op, adjugate_and_determinant, compose, compose_many, conditioning_problem,
                                  inverse, normal_matrix, rotation, scaling, translation)
 
 

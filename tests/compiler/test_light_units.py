@@ -7,8 +7,8 @@ import pytest
 from click.testing import CliRunner
 from pxr import Usd, UsdLux
 
-from compiler.api import compile_to_stage
-from renderer.film import read_image
+from rtc.compiler.api import compile_to_stage
+from rtc.renderer.host.film import read_image
 from rtc.cli import main
 
 # light at (0, 4, 0); shape centres at distances 3 (sphere), 4 (sphere) and 4.5 (floor box centre

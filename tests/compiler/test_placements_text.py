@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 from pxr import Sdf, Usd, UsdGeom
 
-from compiler import api
-from compiler.placements_text import splice, usd_double
-from compiler.usd_writer import AssetPlan, write_scene as author
-from compiler_helpers import SCENES, write_scene
+from rtc.compiler import api
+from rtc.compiler.placements_text import splice, usd_double
+from rtc.compiler.usd_writer import AssetPlan, write_scene as author
+from tests.compiler.compiler_helpers import SCENES, write_scene
 
 
 def _both_paths(xml: Path, anchor: Path) -> tuple[str, str, bool]:
@@ -119,7 +119,7 @@ def test_compiled_file_composes_to_the_compilers_matrices(tmp_path):
 
 
 def test_animated_placements_use_sdf(tmp_path):
-    from compiler.placements_text import eligible
+    from rtc.compiler.placements_text import eligible
     xml = SCENES / "motion.xml"
     c = api._front_end(xml, None, None, None, None, None)
     assert not eligible(c.scene.placements)

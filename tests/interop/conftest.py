@@ -3,7 +3,7 @@ from __future__ import annotations
 
 import pytest
 
-from interop_helpers import USD_CORPUS
+from tests.interop.interop_helpers import USD_CORPUS
 
 
 @pytest.fixture(scope='session')

@@ -22,9 +22,9 @@ import pytest
 from click.testing import CliRunner
 from pxr import Usd, UsdGeom, UsdLux, UsdShade
 
-from compiler.cli import compile_cmd
+from rtc.compiler.cli import compile_cmd
 
-from interop_helpers import REPO
+from tests.interop.interop_helpers import REPO
 
 pytestmark = [pytest.mark.interop,
               pytest.mark.skipif(importlib.util.find_spec('bpy') is None, reason="needs the 'interop' extra (bpy)")]

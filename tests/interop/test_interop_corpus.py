@@ -17,10 +17,10 @@ import numpy as np
 import pytest
 from pxr import Usd, UsdGeom
 
-from renderer.render import RenderOptions, render
-from renderer.stage_reader import read_stage
+from rtc.renderer.host.render import RenderOptions, render
+from rtc.renderer.usd.stage import read_stage
 
-from interop_helpers import RTC, USD_CORPUS, corpus_files
+from tests.interop.interop_helpers import RTC, USD_CORPUS, corpus_files
 
 W, H, SPP = 48, 36, 4
 SURFACES = {'Mesh', 'Sphere', 'Cube', 'Cylinder', 'Cylinder_1', 'Cone', 'Capsule', 'Capsule_1', 'Plane'}
@@ -142,7 +142,7 @@ def test_usdz_and_z_up_through_the_cli(usd_corpus, tmp_path):
                               '--spp', str(SPP)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert 'Traceback' not in r.stderr and 'not supported; using its default' in r.stderr
-    from renderer.film import read_image
+    from rtc.renderer.host.film import read_image
     img = read_image(out)
     assert img.shape == (H, W, 3) and img.std() > 1e-3
 

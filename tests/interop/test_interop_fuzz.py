@@ -23,9 +23,9 @@ from hypothesis import strategies as st
 from lxml import etree
 from pxr import Usd
 
-from compiler.cli import compile_cmd
+from rtc.compiler.cli import compile_cmd
 
-from interop_helpers import COURSE_CORPUS, REPO
+from tests.interop.interop_helpers import COURSE_CORPUS, REPO
 
 SOURCES = sorted(COURSE_CORPUS.rglob('*.xml')) + sorted((REPO / 'scenes').glob('*.xml'))
 ODD_NUMBERS = ['nan', 'inf', '-inf', '1e308', '-1e308', '1e-320', '0', '-0', '1e999', '99999999999999999999999',

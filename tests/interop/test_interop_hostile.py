@@ -20,7 +20,7 @@ from pxr import Sdf
 
 from rtc.cli import main
 
-from interop_helpers import REPO, RTC, USD_CORPUS
+from tests.interop.interop_helpers import REPO, RTC, USD_CORPUS
 
 XXE = '''<?xml version="1.0"?>
 <!DOCTYPE scene [<!ENTITY secret SYSTEM "file:///etc/passwd">]>
@@ -110,7 +110,7 @@ def test_random_crate_corruption_never_crashes(usd_corpus, tmp_path):
         else:
             b[cut:cut + 64] = bytes(len(b[cut:cut + 64]))
         (tmp_path / f'c{i}.usdc').write_bytes(bytes(b))
-    code = ('import sys, glob\nfrom renderer.stage_reader import read_stage\nfrom renderer.errors import SceneError\n'
+    code = ('import sys, glob\nfrom rtc.renderer.usd.stage import read_stage\nfrom rtc.renderer.errors import SceneError\n'
             'for p in sorted(glob.glob(sys.argv[1] + "/c*.usdc")):\n'
             '    try:\n        read_stage(p, width=8, height=6, spp=1)\n'
             '    except SceneError as e:\n        assert p.rsplit("/", 1)[1] in str(e), e\n')
@@ -245,7 +245,7 @@ def test_existing_output_survives_a_failed_render(tmp_path):
 def test_existing_output_survives_a_failed_write(tmp_path, monkeypatch):
     """The image writer dies half-way through (disk full, killed): the target keeps its old
     bytes and no temporary file is left behind."""
-    from renderer import film
+    from rtc.renderer.host import film
     out = tmp_path / 'out.exr'
     out.write_bytes(b'previous image')
 

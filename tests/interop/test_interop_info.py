@@ -9,7 +9,7 @@ from click.testing import CliRunner
 
 from rtc.cli import main
 
-from interop_helpers import REPO, USD_CORPUS
+from tests.interop.interop_helpers import REPO, USD_CORPUS
 
 TESTENV = 'openusd/pxr/usdImaging/usdImagingGL/testenv/'
 NO_CAMERA = 'no camera in the stage: using a default camera framing the scene bounds'

@@ -16,9 +16,9 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from renderer.film import read_image
+from rtc.renderer.host.film import read_image
 
-from interop_helpers import REPO, RTC
+from tests.interop.interop_helpers import REPO, RTC
 
 SCENE = REPO / 'scenes' / 'gallery.xml'
 SPP = 8192          # enough work (several 1-second passes) that the signals arrive mid-render,

@@ -1,7 +1,7 @@
 """Small SceneDescriptions built by hand (no USD), for tests with closed-form answers."""
 import numpy as np
 
-from renderer import description as D
+from rtc.renderer import description as D
 
 
 def look_at(eye, at, up=(0.0, 1.0, 0.0)) -> np.ndarray:

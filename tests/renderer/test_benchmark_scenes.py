@@ -7,11 +7,10 @@ from pathlib import Path
 import numpy as np
 from pxr import Usd, UsdGeom
 
-from renderer.render import RenderOptions, render
-from renderer.stage_reader import read_stage
+from rtc.renderer.host.render import RenderOptions, render
+from rtc.renderer.usd.stage import read_stage
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / 'benchmarks'))
-import gen_instancing  # noqa: E402
+from benchmarks import gen_instancing
 
 
 def test_point_instancer_tori_stand_upright_and_are_visible(tmp_path):

@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.cameras import C_LENS, camera_table, camera_rays, generate_ray
+from rtc.renderer import description as D
+from rtc.renderer.kernel.cameras import C_LENS, camera_table, camera_rays, generate_ray
 
 
 def _camera(projection='perspective', lens_radius=0.0, focus=5.0, motion=False):

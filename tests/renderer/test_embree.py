@@ -1,4 +1,4 @@
-"""renderer.embree / renderer.trace against independent analytic answers."""
+"""rtc.renderer.host.embree / rtc.renderer.kernel.trace against independent analytic answers."""
 import os
 import subprocess
 import sys
@@ -8,8 +8,8 @@ import numba
 import numpy as np
 import pytest
 
-from renderer import trace
-from renderer.embree import Device, EmbreeError, InstanceGroup, decompose_affine, rtcNewGeometry
+from rtc.renderer.kernel import trace
+from rtc.renderer.host.embree import Device, EmbreeError, InstanceGroup, decompose_affine, rtcNewGeometry
 
 INVALID = 0xFFFFFFFF
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
@@ -324,8 +324,8 @@ def test_packets_agree_with_single_rays(dev):
 def test_cached_kernels_load_in_a_fresh_process(tmp_path):
     script = textwrap.dedent("""
         import numpy as np
-        from renderer import trace
-        from renderer.embree import Device, InstanceGroup
+        from rtc.renderer.kernel import trace
+        from rtc.renderer.host.embree import Device, InstanceGroup
         with Device() as dev:
             proto = dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)])
             eye = np.eye(3, 4, dtype=np.float32)[None, None]

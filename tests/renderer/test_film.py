@@ -6,9 +6,9 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from renderer import film as fm
-from renderer import metrics
-from renderer.film import Film, FilmError, read_image, write_image
+from rtc.renderer.host import film as fm
+from rtc.renderer.host import metrics
+from rtc.renderer.host.film import Film, FilmError, read_image, write_image
 
 META = {'rtc:spp': 64, 'rtc:sampler': 'sobol', 'rtc:seconds': 3.25, 'rtc:rays': 19_700_000_000,
         'rtc:seed': 7, 'Software': 'rtc 0.1.0'}

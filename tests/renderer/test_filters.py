@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from renderer import filters as F
+from rtc.renderer.kernel import filters as F
 
 
 @njit

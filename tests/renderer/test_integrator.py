@@ -5,13 +5,13 @@ import numba
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.build import build
-from renderer.render import RenderOptions, Renderer, render
-from renderer.shapes import surface
-from renderer.trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, TFAR, U, V, intersect1, new_ray_buffer
+from rtc.renderer import description as D
+from rtc.renderer.host.build import build
+from rtc.renderer.host.render import RenderOptions, Renderer, render
+from rtc.renderer.kernel.shapes import surface
+from rtc.renderer.kernel.trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, TFAR, U, V, intersect1, new_ray_buffer
 
-from handmade import look_at, ortho_down, point_light, quad, rect_light, scene, static_instances, translate
+from tests.renderer.handmade import look_at, ortho_down, point_light, quad, rect_light, scene, static_instances, translate
 
 LAMBERT = D.Material('/lambert', model=D.LAMBERTIAN, diffuse=(0.5, 0.5, 0.5))
 BLACK = D.Material('/black', model=D.LAMBERTIAN, diffuse=(0.0, 0.0, 0.0))
@@ -258,7 +258,7 @@ def test_partial_packets_and_many_lights_stay_bit_identical():
 def test_lens_sincos_polynomial_matches_libm():
     """The thin-lens disk map's quarter-range sine/cosine polynomial is exact to double rounding,
     and the concentric map keeps every lens sample on the unit disk."""
-    from renderer.cameras import _concentric_disk, _sincos_quarter
+    from rtc.renderer.kernel.cameras import _concentric_disk, _sincos_quarter
     xs = np.linspace(-math.pi / 4, math.pi / 4, 20001)
     for x in xs:
         s, c = _sincos_quarter(x)

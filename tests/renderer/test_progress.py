@@ -1,6 +1,6 @@
 import io
 
-from renderer.progress import Progress, summary_line
+from rtc.renderer.host.progress import Progress, summary_line
 
 
 class FakeTTY(io.StringIO):

@@ -1,4 +1,4 @@
-"""Tests for renderer.samplers: range, determinism, stratification, (0,2)-sequence nets,
+"""Tests for rtc.renderer.kernel.samplers: range, determinism, stratification, (0,2)-sequence nets,
 convergence slopes on integrands with analytic integrals, decorrelation between pairs."""
 import math
 
@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from renderer import samplers as S
+from rtc.renderer.kernel import samplers as S
 
 ALL = (S.INDEPENDENT, S.STRATIFIED, S.CMJ, S.SOBOL)
 NAMES = {v: k for k, v in S.SAMPLER_NAMES.items()}

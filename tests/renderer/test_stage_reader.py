@@ -1,4 +1,4 @@
-"""renderer.stage_reader against independent computations.
+"""rtc.renderer.usd.stage against independent computations.
 
 The central check expands every corpus file by brute force -- `Usd.PrimRange` through instance
 proxies, one Python iteration per PointInstancer instance, `XformCache.GetLocalToWorldTransform`
@@ -16,12 +16,12 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
-from renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
-from renderer.errors import SceneError
-from renderer.info import describe
-from renderer.stage_reader import read_stage, rotate_x
-from renderer.usd_geometry import GeometryError, convert_gprim, converter_for
-from renderer.usd_instancing import InstanceGraph
+from rtc.renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
+from rtc.renderer.errors import SceneError
+from rtc.renderer.host.info import describe
+from rtc.renderer.usd.stage import read_stage, rotate_x
+from rtc.renderer.usd.geometry import GeometryError, convert_gprim, converter_for
+from rtc.renderer.usd.instancing import InstanceGraph
 
 CORPUS = Path(os.environ.get('RTC_SHARED', Path(__file__).resolve().parents[2].parent / 'shared')) / 'corpus' / 'usd'
 IMAGING = CORPUS / 'openusd' / 'pxr' / 'usdImaging' / 'usdImagingGL' / 'testenv'

@@ -7,9 +7,9 @@ import math
 
 import numpy as np
 
-from renderer import description as D
+from rtc.renderer import description as D
 
-from handmade import look_at, quad, scene
+from tests.renderer.handmade import look_at, quad, scene
 
 LAMBERT = D.Material('/lambert', model=D.LAMBERTIAN, diffuse=(0.6, 0.6, 0.6))
 RED = D.Material('/red', model=D.BLINN_PHONG, diffuse=(0.7, 0.2, 0.1), specular=(0.3, 0.3, 0.3), exponent=30)

@@ -8,11 +8,11 @@ the clean one: mean |diff| < 1e-5 and no pixel off by more than 0.05.
 """
 import numpy as np
 
-from renderer import description as D
-from renderer.render import RenderOptions, render
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
 
-from handmade import look_at, point_light, quad, scene
-from stability_scenes import compare, uv_sphere
+from tests.renderer.handmade import look_at, point_light, quad, scene
+from tests.stability.stability_scenes import compare, uv_sphere
 
 
 def dirty(mesh):

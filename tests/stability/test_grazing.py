@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from renderer import description as D
-from renderer.render import RenderOptions, render
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
 
-from handmade import scene
+from tests.renderer.handmade import scene
 
 KD, E = 0.5, 1.0
 W_PX, H_PX = 96, 24

@@ -10,9 +10,9 @@ import pytest
 from click.testing import CliRunner
 from pxr import Gf, Usd, UsdGeom, UsdLux
 
-from renderer.errors import SceneError
-from renderer.render import RenderOptions, render
-from renderer.stage_reader import read_stage
+from rtc.renderer.errors import SceneError
+from rtc.renderer.host.render import RenderOptions, render
+from rtc.renderer.usd.stage import read_stage
 from rtc.cli import main
 
 XML = """<?xml version="1.0" encoding="UTF-8" ?>

@@ -9,9 +9,9 @@ Before the offset-scale fix the 1e-4 scene lost its contact shadows (3.7e-3, 2.3
 import numpy as np
 import pytest
 
-from renderer.render import RenderOptions, render
+from rtc.renderer.host.render import RenderOptions, render
 
-from stability_scenes import compare, speckles, test_scene as build_scene, transformed
+from tests.stability.stability_scenes import compare, speckles, test_scene as build_scene, transformed
 
 OPTS = RenderOptions(spp=8, sampler='sobol', seed=3)
 

@@ -8,11 +8,11 @@ values come from an independent numpy ray/triangle intersection (Moller-Trumbore
 """
 import numpy as np
 
-from renderer import description as D
-from renderer.render import RenderOptions, render
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
 
-from handmade import scene, translate
-from stability_scenes import uv_sphere
+from tests.renderer.handmade import scene, translate
+from tests.stability.stability_scenes import uv_sphere
 
 N, FILM, KD = 64, 2.4, 0.8
 

@@ -12,13 +12,13 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
-from compiler import transforms as T
-from renderer import description as D
-from renderer.render import RenderOptions, render
-from renderer.vecmath import cofactor_dir, inverse_xform
+from rtc.compiler import transforms as T
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, render
+from rtc.renderer.kernel.vecmath import cofactor_dir, inverse_xform
 
-from handmade import look_at, point_light, quad, scene
-from stability_scenes import compare, uv_sphere
+from tests.renderer.handmade import look_at, point_light, quad, scene
+from tests.stability.stability_scenes import compare, uv_sphere
 
 EPS = 2.0 ** -53
 

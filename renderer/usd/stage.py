@@ -26,14 +26,14 @@ from typing import Optional, Union
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
 
-from renderer.description import (Container, Instances, Light, Mesh, SceneDescription, Sphere)
-from renderer.errors import SceneError
-from renderer.usd_camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
+from ..description import (Container, Instances, Light, Mesh, SceneDescription, Sphere)
+from ..errors import SceneError
+from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
                                  shutter)
-from renderer.usd_geometry import GeometryError, convert_gprim
-from renderer.usd_instancing import INHERIT, RENDERED, InstanceGraph, Placements
-from renderer.usd_lights import default_lights, read_light
-from renderer.usd_materials import MaterialTable
+from .geometry import GeometryError, convert_gprim
+from .instancing import INHERIT, RENDERED, InstanceGraph, Placements
+from .lights import default_lights, read_light
+from .materials import MaterialTable
 
 MAX_LIGHTS = 10_000
 MAX_DIAGNOSTICS = 50

@@ -18,8 +18,8 @@ from typing import Callable, Optional
 import numpy as np
 from pxr import Gf, Usd, UsdGeom, UsdRender
 
-from renderer.description import Camera, RenderSettings
-from renderer.errors import SceneError
+from ..description import Camera, RenderSettings
+from ..errors import SceneError
 
 Warn = Callable[[str], None]
 ABSURD_LENS = 0.25        # lens radius above this fraction of the scene diagonal is not a real lens

@@ -13,7 +13,7 @@ import math
 import numba as nb
 import numpy as np
 
-from . import description as D
+from .. import description as D
 from .vecmath import normalize
 
 _JIT = dict(cache=True, nogil=True, inline='always')

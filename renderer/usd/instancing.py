@@ -44,9 +44,9 @@ from typing import Callable, Optional
 import numpy as np
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
-from renderer.errors import SceneError
-from renderer.usd_geometry import converter_for
-from renderer.usd_lights import LIGHT_TYPES
+from ..errors import SceneError
+from .geometry import converter_for
+from .lights import LIGHT_TYPES
 
 Warn = Callable[[str], None]
 PURPOSES = {'default': 0, 'render': 1, 'proxy': 2, 'guide': 3}

@@ -28,8 +28,8 @@ import math
 import numba as nb
 import numpy as np
 
-from . import description as D
-from .build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
+from .. import description as D
+from ..host.build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .cameras import C_FAR, C_NEAR, camera_rays
 from .filters import filter_offset
 from .lights import escaped_radiance, light_is_area, sample_light

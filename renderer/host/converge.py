@@ -35,7 +35,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import description as D
+from .. import description as D
 from .film import read_image, write_image
 from .metrics import rel_mse, rmse
 from .render import RenderOptions, Renderer

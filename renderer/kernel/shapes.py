@@ -16,7 +16,7 @@ import math
 
 import numba as nb
 
-from .build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
+from ..host.build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
 from .trace import instance_transform
 from .vecmath import SHADING_JIT, cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 

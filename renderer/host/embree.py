@@ -354,7 +354,7 @@ class Device:
 class Scene:
     """A committed Embree scene (``RTCScene``), owned by this object; a context manager.
 
-    handle:         the RTCScene address, to pass to the numba kernels of ``renderer.trace``.
+    handle:         the RTCScene address, to pass to the numba kernels of ``rtc.renderer.kernel.trace``.
     group_geom_ids: top scene: the geomID of each ``InstanceGroup`` (== its index in ``groups``),
                     so a hit's ``instID`` selects the group and ``instPrimID`` the row in it;
                     () for a prototype scene (whose geomIDs are its meshes, then sphere sets).

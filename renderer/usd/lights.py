@@ -24,7 +24,7 @@ from typing import Callable, Optional
 import numpy as np
 from pxr import Usd, UsdLux
 
-from renderer.description import DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
+from ..description import DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
 
 Warn = Callable[[str], None]
 LIGHT_TYPES = ('SphereLight', 'RectLight', 'DiskLight', 'DistantLight', 'DomeLight', 'DomeLight_1')

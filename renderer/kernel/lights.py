@@ -15,8 +15,8 @@ import math
 
 import numba as nb
 
-from . import description as D
-from .build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .. import description as D
+from ..host.build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
 from .vecmath import SHADING_JIT, dot, normalize, onb, sub, to_world
 

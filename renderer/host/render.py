@@ -15,14 +15,14 @@ from dataclasses import dataclass, field
 import numba
 import numpy as np
 
-from . import description as D
+from .. import description as D
 from .build import build
-from .cameras import C_LENS, camera_table
+from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
-from .filters import FILTER_NAMES
-from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, TILE,
+from ..kernel.filters import FILTER_NAMES
+from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, TILE,
                          render_pass)
-from .samplers import SAMPLER_NAMES
+from ..kernel.samplers import SAMPLER_NAMES
 
 MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
 MAX_SPP = 1 << 20

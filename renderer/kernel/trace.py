@@ -42,7 +42,7 @@ import numba
 import numpy as np
 from numba import types
 
-from .embree import LIB, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, RTC_INVALID_GEOMETRY_ID
+from ..host.embree import LIB, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, RTC_INVALID_GEOMETRY_ID
 
 __all__ = [
     "rtcIntersect1", "rtcOccluded1", "rtcIntersect16", "rtcOccluded16", "rtcGetGeometry",

@@ -10,7 +10,7 @@ from collections import Counter
 
 import numpy as np
 
-from renderer.description import MODEL_NAMES, SceneDescription
+from ..description import MODEL_NAMES, SceneDescription
 
 LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome')
 MODEL_LABELS = {v: k for k, v in MODEL_NAMES.items()}

@@ -26,7 +26,7 @@ from typing import Callable
 import numpy as np
 from pxr import Sdf, Usd, UsdGeom
 
-from renderer.description import Mesh, Sphere
+from ..description import Mesh, Sphere
 
 Warn = Callable[[str], None]
 SEGMENTS = 48            # tessellation of quadrics around their axis

@@ -24,7 +24,7 @@ from typing import Callable
 import numpy as np
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
-from renderer.description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+from ..description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)

@@ -20,8 +20,8 @@ import math
 
 import numba as nb
 
-from . import description as D
-from .build import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
+from .. import description as D
+from ..host.build import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
                     MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
 from .textures import sample_texture
 from .vecmath import SHADING_JIT, dot, normalize

@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import description as D
+from .. import description as D
 from .embree import Device, InstanceGroup
 
 # -- material table layout (float32 columns of SceneData.mat_f)
