@@ -23,64 +23,16 @@ from .renderer.kernel.filters import FILTER_NAMES
 from .renderer.kernel.samplers import SAMPLER_NAMES
 from .renderer.options import DEFAULTS
 
-EXIT_OK, EXIT_WARNINGS, EXIT_ERROR, EXIT_INTERRUPTED = 0, 1, 2, 130
+from .exits import EXIT_INTERRUPTED, fail as _fail
+from .scene_input import checked_options, load_scene
+
+__all__ = ['main', 'load_scene', 'checked_options']
 
 
 @click.group(context_settings={'help_option_names': ['-h', '--help']})
 @click.version_option(package_name='rtc')
 def main():
     """rtc: course XML scenes -> OpenUSD -> Cook-style distribution ray tracing on Embree."""
-
-
-def _fail(message: str, code: int = EXIT_ERROR):
-    click.echo(f'rtc: error: {message}', err=True)
-    sys.exit(code)
-
-
-def load_scene(path: str, *, camera=None, time=None, options=None, quiet=False):
-    """A SceneDescription from a USD file, or from a course XML file compiled in memory (the compiler
-    writes what the XML says; `options`, what the render asks for, are resolved against the stage's
-    render settings by the reader, the same way for both)."""
-    from .renderer.errors import RenderError, SceneError
-    from .renderer.usd.stage import read_stage
-    p = Path(path)
-    if not p.exists():
-        _fail(f'{path}: no such file')
-    source = path
-    if p.suffix.lower() == '.xml':
-        from .compiler.api import compile_to_stage
-        from .compiler.diagnostics import CompileError
-        try:
-            stage, diags = compile_to_stage(path)
-        except CompileError as e:
-            for d in e.diagnostics:
-                click.echo(str(d), err=True)
-            sys.exit(EXIT_ERROR)
-        if not quiet:
-            for d in diags:
-                click.echo(str(d), err=True)
-        source = stage
-    try:
-        desc = read_stage(source, time=time, camera_path=camera, options=options)
-    except (SceneError, RenderError) as e:
-        _fail(f'{path}: {e}' if isinstance(e, RenderError) else str(e))
-    if not quiet:
-        for w in desc.warnings:
-            click.echo(f'{path}: warning: {w}', err=True)
-    return desc
-
-
-def checked_options(**asked):
-    """RenderOptions of the values given on the command line, refused (exit 2) before any scene is
-    read when one is out of range."""
-    from .renderer.errors import RenderError
-    from .renderer.options import RenderOptions, validate
-    options = RenderOptions(**asked)
-    try:
-        validate(options)
-    except RenderError as e:
-        _fail(str(e))
-    return options
 
 
 class _StopFlag:

@@ -9,7 +9,6 @@ the scene as `<scene>.ref-<hash>.exr` (hash of the scene file's bytes and the re
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
@@ -18,12 +17,8 @@ from .renderer.kernel.filters import FILTER_NAMES
 from .renderer.kernel.samplers import SAMPLER_NAMES
 from .renderer.options import DEFAULTS
 
-EXIT_ERROR = 2
-
-
-def _fail(message: str):
-    click.echo(f'rtc: error: {message}', err=True)
-    sys.exit(EXIT_ERROR)
+from .exits import fail as _fail
+from .scene_input import checked_options, load_scene
 
 
 @click.command('converge')
@@ -60,7 +55,6 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
     per pixel with each sampler, against spp and against wall-clock seconds."""
     from .renderer.host import converge as C
     from .renderer.host.film import FilmError, read_image
-    from .cli import checked_options, load_scene
 
     names = [s.strip() for s in samplers.split(',') if s.strip()]
     bad = [s for s in names if s not in SAMPLER_NAMES]

@@ -7,7 +7,8 @@ from pathlib import Path
 import pytest
 from click.testing import CliRunner
 
-from rtc.cli import load_scene, main
+from rtc.cli import main
+from rtc.scene_input import load_scene
 from rtc.renderer import options as O
 from rtc.renderer.description import RenderSettings
 from rtc.renderer.errors import RenderError
