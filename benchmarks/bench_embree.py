@@ -1,4 +1,4 @@
-"""Bare Embree throughput through rtc.renderer.kernel.trace: the baseline the renderer is compared with.
+"""Bare Embree throughput through the renderer's ray queries (benchmarks/embree_loops.py): the baseline the renderer is compared with.
 
 Scene: one instance array of 400 instances (20 x 20 grid, random yaw, scale 0.4) of a 64 770-triangle
 UV sphere - the scene of /work/shared/embree.md section 8.  Ray sets:
@@ -81,7 +81,7 @@ def shadow_rays(primary, t, light=(3.0, 8.0, 2.0)):
 
 
 def throughput(rounds: int):
-    from rtc.renderer.kernel import trace
+    import embree_loops as trace                  # benchmarks/, the folder of this script
     from rtc.renderer.host.embree import Device
     rng = np.random.default_rng(0)
     with Device() as device:
@@ -122,7 +122,7 @@ JIT_PROBE = """
 import time, sys
 start = time.perf_counter()
 import numpy as np
-from rtc.renderer.kernel import trace
+from benchmarks import embree_loops as trace   # `python -c` run in the repository root
 from rtc.renderer.host.embree import Device, InstanceGroup
 imported = time.perf_counter()
 with Device() as dev:
@@ -148,7 +148,7 @@ def jit_startup(runs: int):
         with tempfile.TemporaryDirectory() as cache:
             env = dict(os.environ, NUMBA_CACHE_DIR=cache)
             for kind in ("cold", "warm"):
-                out = subprocess.run([sys.executable, "-c", script], env=env, check=True,
+                out = subprocess.run([sys.executable, "-c", script], env=env, check=True, cwd=ROOT,
                                      capture_output=True, text=True).stdout
                 results[kind].append([float(v) for v in out.split()])
     print(f"numba start-up, fresh processes, median of {runs} (seconds): "

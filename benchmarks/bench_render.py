@@ -13,7 +13,7 @@ Per scene (USD, or course XML compiled in memory with `rtc.cli.load_scene`):
 * the **bare-Embree replay**: the integrator's recording mode stores every ray of `--record-spp`
   samples per pixel, traced as one pass as in the passes of a long render (origin, direction, tnear,
   tfar, time, kind: camera, first-hit shadow, deeper shadow, secondary); they are replayed in the same
-  process with `rtc.renderer.kernel.trace.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
+  process with `embree_loops.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
   `occlude_rays16` (16-ray packets in recorded order, i.e. the renderer's own packets for camera and
   first-hit shadow rays).  The bare time of the full render is sum_k N_k / rate_k over the kinds k,
   and **ratio = bare time / render time** (1.0 = the renderer costs nothing but Embree), against
@@ -43,13 +43,12 @@ import numpy as np
 
 
 from rtc.renderer.host import film as film_mod  # noqa: E402
-from rtc.renderer.kernel.filters import FILTER_NAMES  # noqa: E402
-from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, R_DX,  # noqa: E402
-                                 R_OX, R_TFAR, R_TIME, R_TNEAR, N_COUNTERS, TILE, new_ray_record, render_pass)
-from rtc.renderer.kernel.samplers import SAMPLER_NAMES  # noqa: E402
+from embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  (benchmarks/)
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.options import resolve  # noqa: E402
-from rtc.renderer.kernel.trace import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402
+from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
+                                            N_COUNTERS, n_tiles, render_pass)
+from rtc.renderer.kernel.ray_record import R_DX, R_OX, R_TFAR, R_TIME, R_TNEAR, new_ray_record  # noqa: E402
 
 KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
 PACKETED = ('camera', 'shadow0')            # the kinds the renderer itself traces in packets
@@ -71,11 +70,9 @@ def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     """The rays of samples [0, spp) of every pixel, traced as one pass (so that the packets hold 16
     samples of one pixel, as in a long render's passes), by kind, each as float32 arrays in traced order."""
     o = resolve(opts, r.desc.settings)
-    rec = new_ray_record(o.width, o.height, cap)
-    ctab, use_lens, use_time = r.camera(o)
-    ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
-    render_pass(r.built.data, r.built.handle, ctab, o.width, o.height, 0, spp, o.spp, SAMPLER_NAMES[o.sampler],
-                FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time, np.zeros((o.height, o.width, 3)),
+    ntiles = n_tiles(o.width, o.height)
+    rec = new_ray_record(ntiles, cap)
+    render_pass(r.built.data, r.built.handle, r.pass_params(o, 0, spp), np.zeros((o.height, o.width, 3)),
                 np.zeros((ntiles, N_COUNTERS), np.int64), rec)
     rays, kind, count = rec
     if np.any(count > cap):

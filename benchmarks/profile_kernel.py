@@ -157,7 +157,7 @@ def text_base(lib, obj_bytes: bytes) -> int | None:
     return None
 
 
-def main(argv=None) -> int:
+def _arguments(argv):
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('scene')
     ap.add_argument('--width', type=int, default=320)
@@ -171,8 +171,11 @@ def main(argv=None) -> int:
     ap.add_argument('--frequency', type=int, default=4000, help='perf sampling frequency (Hz)')
     ap.add_argument('--top', type=int, default=40)
     ap.add_argument('--by', choices=('line', 'file', 'function'), default='line')
-    a = ap.parse_args(argv)
+    return ap.parse_args(argv)
 
+
+def _renderer(a):
+    """The scene's renderer and options, its kernel loaded (or compiled)."""
     from rtc.renderer.host.render import RenderOptions, Renderer
     if a.scene.lower().endswith('.xml'):
         from rtc.cli import load_scene
@@ -188,7 +191,11 @@ def main(argv=None) -> int:
     r.render(RenderOptions(**{**opts.__dict__, 'spp': 1}))
     print(f'kernel ready in {time.perf_counter() - t0:.1f} s (debug-info build, cache {os.environ["NUMBA_CACHE_DIR"]})',
           flush=True)
+    return r, opts
 
+
+def _perf_script(r, opts, a) -> str:
+    """`perf script` lines (ip, dso) of renders repeated for `a.seconds`."""
     with tempfile.TemporaryDirectory() as tmp:
         data = os.path.join(tmp, 'perf.data')
         perf = subprocess.Popen(['perf', 'record', '-F', str(a.frequency), '-p', str(os.getpid()), '-o', data],
@@ -202,9 +209,13 @@ def main(argv=None) -> int:
         perf.wait()
         script = subprocess.run(['perf', 'script', '-i', data, '-F', 'ip,dso'], capture_output=True, text=True)
     print(f'{renders} renders of {a.width}x{a.height} at {a.spp} spp, {a.threads} thread(s)')
+    return script.stdout
 
-    # the kernels' code: every library's .text, located through one exported symbol
-    ranges = []          # (start address, end address, functions, instructions, text base)
+
+def _kernel_ranges():
+    """The kernels' code: every library's .text, located through one exported symbol:
+    (start address, end address, functions, instructions, text base), sorted."""
+    ranges = []
     for lib, obj in _OBJECTS:
         base = text_base(lib, obj)
         if base is None:
@@ -213,12 +224,16 @@ def main(argv=None) -> int:
         if insns:
             ranges.append((base, base + insns[-1][0] + 16, funcs, insns, base))
     ranges.sort()
-    starts = [rg[0] for rg in ranges]
+    return ranges
 
+
+def _attribute(script: str, ranges, by: str):
+    """Samples per library and per kernel source line / file / function: (total, by_dso, by_key)."""
+    starts = [rg[0] for rg in ranges]
     by_dso = collections.Counter()
     by_key = collections.Counter()
     total = 0
-    for ln in script.stdout.splitlines():
+    for ln in script.splitlines():
         parts = ln.split(None, 1)
         if len(parts) != 2:
             continue
@@ -236,18 +251,19 @@ def main(argv=None) -> int:
             _, _, line = insns[k]
             path, line = decode(line)
             by_dso['numba kernels'] += 1
-            if a.by == 'function':
+            if by == 'function':
                 j = bisect.bisect_right([f[0] for f in funcs], off) - 1
                 by_key[funcs[j][2][:110]] += 1
-            elif a.by == 'file':
+            elif by == 'file':
                 by_key[os.path.basename(path)] += 1
             else:
                 by_key[(path, line)] += 1
         else:
             by_dso[os.path.basename(dso) or '?'] += 1
-    if not total:
-        print('no samples (is perf allowed? see /proc/sys/kernel/perf_event_paranoid)')
-        return 1
+    return total, by_dso, by_key
+
+
+def _report(total, by_dso, by_key, a) -> None:
     print(f'{total} samples')
     for dso, n in by_dso.most_common(8):
         print(f'  {100 * n / total:5.1f} %  {dso}')
@@ -266,6 +282,17 @@ def main(argv=None) -> int:
                 lines_cache[path] = []
         text = lines_cache[path][line - 1].strip() if 0 < line <= len(lines_cache[path]) else ''
         print(f'  {100 * n / total:5.1f} %  {os.path.basename(path)}:{line:<5d} {text[:90]}')
+
+
+def main(argv=None) -> int:
+    a = _arguments(argv)
+    r, opts = _renderer(a)
+    script = _perf_script(r, opts, a)
+    total, by_dso, by_key = _attribute(script, _kernel_ranges(), a.by)
+    if not total:
+        print('no samples (is perf allowed? see /proc/sys/kernel/perf_event_paranoid)')
+        return 1
+    _report(total, by_dso, by_key, a)
     r.close()
     return 0
 

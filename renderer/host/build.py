@@ -216,17 +216,12 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
     return li_type, li_f, li_tex
 
 
-def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
-    """Build Embree scenes (one per container + the top level) and the shading tables."""
-    inst = desc.instances
-    origin = np.array(desc.camera.matrix[:3, 3], np.float64)
-    containers = list(desc.containers)
-    tables = _Tables()
-    dev = Device(threads=threads)
-    protos, centers, pr_gp_start, pr_geom = [], [], [], []
-    ellipsoids = []                                   # (container index, sphere index)
-
-    radii = []
+def _prototypes(dev: Device, containers: list, tables: _Tables):
+    """One Embree scene per container, geometry re-centred on the container's centre; spheres that
+    are not similarity-placed (ellipsoids) are left out and listed (container, sphere index) to be
+    placed as instances of the unit sphere.  -> (scenes, centres, radii, first gprim per container,
+    Embree geometry -> gprim per container, ellipsoids)."""
+    protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = [], [], [], [], [], []
     for ci, c in enumerate(containers):
         ctr = _container_center(c)
         centers.append(ctr)
@@ -251,65 +246,51 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
             e_spheres.append(cr[None, :].astype(np.float32))
         protos.append(dev.prototype_scene(e_meshes, e_spheres))
         pr_geom.append(geom_to_gp)
+    return protos, centers, radii, pr_gp_start, pr_geom, ellipsoids
 
-    rows_proto = [np.asarray(inst.container, np.int64)]
-    rows_world = [np.asarray(inst.matrices, np.float64)]
-    rows_set = [np.asarray(inst.material_set, np.int64)]
-    material_sets = [tuple(int(v) for v in s) for s in inst.material_sets]
 
-    if ellipsoids:                                    # one shared unit-sphere container
-        unit = len(protos)
-        centers.append(np.zeros(3))
-        radii.append(1.0)
-        pr_gp_start.append(len(tables.kind))
-        pr_geom.append([len(tables.kind)])
-        tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
-        protos.append(dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
-        set_of = {}
-        for ci, si in ellipsoids:
-            sel = np.nonzero(rows_proto[0] == ci)[0]
-            if not len(sel):
-                continue
-            s = containers[ci].spheres[si]
-            slot = len(containers[ci].meshes) + si
-            per_set = np.array([ms[slot] if slot < len(ms) else -1 for ms in material_sets] or [-1], np.int64)
-            mats = per_set[rows_set[0][sel]] if material_sets else np.full(len(sel), -1)
-            mats = np.where(mats >= 0, mats, s.material)
-            uniq, inv = np.unique(mats, return_inverse=True)
-            ids = []
-            for mv in uniq:
-                key = (int(mv),)
-                if key not in set_of:
-                    set_of[key] = len(material_sets)
-                    material_sets.append(key)
-                ids.append(set_of[key])
-            rows_proto.append(np.full(len(sel), unit, np.int64))
-            rows_world.append(rows_world[0][sel] @ (s.matrix @ np.diag([s.radius] * 3 + [1.0])))
-            rows_set.append(np.asarray(ids, np.int64)[inv])
+def _ellipsoid_placements(containers, ellipsoids, unit: int, rows: dict, material_sets: list) -> None:
+    """Append to `rows` (placement rows: proto, world, set) one placement of the unit-sphere
+    container `unit` per placed ellipsoid, with a material set of its own material."""
+    set_of = {}
+    base_proto, base_world, base_set = rows['proto'][0], rows['world'][0], rows['set'][0]
+    for ci, si in ellipsoids:
+        sel = np.nonzero(base_proto == ci)[0]
+        if not len(sel):
+            continue
+        s = containers[ci].spheres[si]
+        slot = len(containers[ci].meshes) + si
+        per_set = np.array([ms[slot] if slot < len(ms) else -1 for ms in material_sets] or [-1], np.int64)
+        mats = per_set[base_set[sel]] if material_sets else np.full(len(sel), -1)
+        mats = np.where(mats >= 0, mats, s.material)
+        uniq, inv = np.unique(mats, return_inverse=True)
+        ids = []
+        for mv in uniq:
+            key = (int(mv),)
+            if key not in set_of:
+                set_of[key] = len(material_sets)
+                material_sets.append(key)
+            ids.append(set_of[key])
+        rows['proto'].append(np.full(len(sel), unit, np.int64))
+        rows['world'].append(base_world[sel] @ (s.matrix @ np.diag([s.radius] * 3 + [1.0])))
+        rows['set'].append(np.asarray(ids, np.int64)[inv])
 
-    in_proto = np.concatenate(rows_proto)
-    world = np.concatenate(rows_world, axis=0) if rows_world[0].ndim == 4 else rows_world[0]
-    set_rows = np.concatenate(rows_set)
-    K = int(world.shape[1]) if world.ndim == 4 and len(world) else 1
 
-    # placement matrices act on re-centred containers (M' = M T(centre)), camera-relative
-    ctr_arr = np.array(centers, np.float64).reshape(-1, 3)
-    xf = np.zeros((len(in_proto), K, 3, 4), np.float64)
-    if len(in_proto):
-        xf[:] = world[:, :, :3, :]
-        xf[:, :, :, 3] += np.einsum('rkij,rj->rki', world[:, :, :3, :3], ctr_arr[in_proto])
-        xf[:, :, :, 3] -= origin
-
-    # flat material sets; -1 offset = placement binds nothing (use the gprims' own materials)
+def _flat_material_sets(material_sets: list, set_rows: np.ndarray):
+    """(flat material list, per placement offset into it); -1 offset = the placement binds nothing
+    (use the gprims' own materials)."""
     set_off = np.full(len(material_sets) + 1, -1, np.int64)
     flat = []
     for k, s in enumerate(material_sets):
         if any(v >= 0 for v in s):
             set_off[k] = len(flat)
             flat.extend(s)
-    in_matset = set_off[set_rows] if len(set_rows) else np.zeros(0, np.int64)
+    return flat, (set_off[set_rows] if len(set_rows) else np.zeros(0, np.int64))
 
-    # top level: static placements in one instance array, moving ones in another (K time steps)
+
+def _top_level(dev: Device, protos: list, in_proto: np.ndarray, xf: np.ndarray, K: int):
+    """The top-level scene: static placements in one instance array, moving ones in another (K time
+    steps).  -> (scene, placement order of the instance rows, first row of each instance geometry)."""
     moving = np.zeros(len(in_proto), bool)
     if K > 1 and len(xf):
         moving = np.any(xf != xf[:, :1], axis=(1, 2, 3))
@@ -327,6 +308,45 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
     for gid, rows in zip(gids, order):
         grp_base[gid] = start
         start += len(rows)
+    return top, perm, grp_base
+
+
+def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
+    """Build Embree scenes (one per container + the top level) and the shading tables."""
+    inst = desc.instances
+    origin = np.array(desc.camera.matrix[:3, 3], np.float64)
+    containers = list(desc.containers)
+    tables = _Tables()
+    dev = Device(threads=threads)
+    protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = _prototypes(dev, containers, tables)
+
+    rows = {'proto': [np.asarray(inst.container, np.int64)], 'world': [np.asarray(inst.matrices, np.float64)],
+            'set': [np.asarray(inst.material_set, np.int64)]}
+    material_sets = [tuple(int(v) for v in s) for s in inst.material_sets]
+    if ellipsoids:                                    # one shared unit-sphere container
+        unit = len(protos)
+        centers.append(np.zeros(3))
+        radii.append(1.0)
+        pr_gp_start.append(len(tables.kind))
+        pr_geom.append([len(tables.kind)])
+        tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
+        protos.append(dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
+        _ellipsoid_placements(containers, ellipsoids, unit, rows, material_sets)
+
+    in_proto = np.concatenate(rows['proto'])
+    world = np.concatenate(rows['world'], axis=0) if rows['world'][0].ndim == 4 else rows['world'][0]
+    set_rows = np.concatenate(rows['set'])
+    K = int(world.shape[1]) if world.ndim == 4 and len(world) else 1
+
+    # placement matrices act on re-centred containers (M' = M T(centre)), camera-relative
+    ctr_arr = np.array(centers, np.float64).reshape(-1, 3)
+    xf = np.zeros((len(in_proto), K, 3, 4), np.float64)
+    if len(in_proto):
+        xf[:] = world[:, :, :3, :]
+        xf[:, :, :, 3] += np.einsum('rkij,rj->rki', world[:, :, :3, :3], ctr_arr[in_proto])
+        xf[:, :, :, 3] -= origin
+    flat, in_matset = _flat_material_sets(material_sets, set_rows)
+    top, perm, grp_base = _top_level(dev, protos, in_proto, xf, K)
 
     mat_i, mat_f = _material_tables(desc.materials)
     tex_i, tex_f, tex_data = _texture_tables(desc.textures)

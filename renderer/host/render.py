@@ -21,8 +21,9 @@ from .build import build
 from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
 from ..kernel.filters import FILTER_NAMES
-from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, TILE,
-                         render_pass)
+from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
+                                 n_tiles, render_pass)
+from ..kernel.records import PassParams
 from ..kernel.samplers import SAMPLER_NAMES
 
 __all__ = ['RenderError', 'RenderOptions', 'RenderResult', 'RenderStats', 'Renderer', 'render']
@@ -92,31 +93,35 @@ class Renderer:
                             motion_blur=use_time)
         return ctab, bool(ctab[C_LENS] > 0), use_time
 
+    def pass_params(self, o: RenderOptions, s0: int, s1: int, ctab=None, use_lens=None, use_time=None):
+        """The kernels' `PassParams` of samples [s0, s1) of a render with resolved options `o`."""
+        if ctab is None:
+            ctab, use_lens, use_time = self.camera(o)
+        return PassParams(ctab, o.width, o.height, s0, s1, o.spp, SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter],
+                          o.seed, o.max_depth, bool(use_lens), bool(use_time))
+
     def render(self, options: RenderOptions | None = None, *, film: Film | None = None, should_stop=lambda: False,
                on_pass=None, ray_record=None) -> RenderResult:
         """Render with `options` resolved against the scene's render settings (None: the options the
         reader resolved) until `spp` samples per pixel (continuing `film` if given) or until
         `should_stop()` is true between passes.  `on_pass(result)` is called after every pass.
-        `ray_record`: None, or `integrator.new_ray_record(width, height, cap)` to store the rays
-        traced (benchmarks)."""
+        `ray_record`: None, or `ray_record.new_ray_record(n_tiles, cap)` to store the rays traced
+        (benchmarks)."""
         o = resolve(options if options is not None else self.desc.options, self.desc.settings)
         ctab, use_lens, use_time = self.camera(o)
         if film is None:
             film = Film(o.width, o.height)
         elif (film.width, film.height) != (o.width, o.height):
             raise RenderError(f'checkpoint is {film.width}x{film.height}, render is {o.width}x{o.height}')
-        ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
-        counters = np.zeros((ntiles, N_COUNTERS), np.int64)
-        sampler = SAMPLER_NAMES[o.sampler]
-        filt = FILTER_NAMES[o.filter]
+        counters = np.zeros((n_tiles(o.width, o.height), N_COUNTERS), np.int64)
         stats = RenderStats(build_seconds=self.build_seconds)
         result = RenderResult(image=film.image(), film=film, options=o, stats=stats)
         s = film.spp
         # an empty pass (no samples) loads the cached kernel - or compiles it on the very first run -
         # so that the render's time and ray rate measure rendering only
         t0 = _time.perf_counter()
-        render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s, o.spp,
-                    sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters, ray_record)
+        render_pass(self.built.data, self.built.handle, self.pass_params(o, s, s, ctab, use_lens, use_time),
+                    film.sum, counters, ray_record)
         stats.kernel_seconds = _time.perf_counter() - t0
         t_start = _time.perf_counter()
         step = 1
@@ -126,8 +131,8 @@ class Renderer:
                 break
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
-            render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s1, o.spp,
-                        sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters, ray_record)
+            render_pass(self.built.data, self.built.handle, self.pass_params(o, s, s1, ctab, use_lens, use_time),
+                        film.sum, counters, ray_record)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))

@@ -152,12 +152,13 @@ def _to_world(cam, a, o0, o1, o2, d0, d1, d2):
 
 
 @nb.njit(**JIT, error_model='numpy')
-def camera_rays(cam, n, fx, fy, lens_u, lens_v, time, o, d):
+def camera_rays(cam, n, fx, fy, lens, time, o, d):
     """`generate_ray` for the lanes j < n of a packet: film positions fx[j], fy[j], lens samples
-    lens_u[j], lens_v[j], shutter times time[j] -> origins o[:, j] and unit directions d[:, j]
+    lens = (lens_u, lens_v): lens_u[j], lens_v[j], shutter times time[j] -> origins o[:, j] and unit directions d[:, j]
     (float64 (3, PACKET)), the same values bit for bit.  One branch-free loop over the lanes per
     camera model (IEEE division: 0/0 at the lens centre is masked, not an exception), which LLVM
     vectorises."""
+    lens_u, lens_v = lens
     c = (cam[0], cam[1], cam[2], cam[3], cam[4], cam[5], cam[6], cam[7], cam[8], cam[9], cam[10], cam[11],
          cam[12], cam[13], cam[14], cam[15], cam[16], cam[17], cam[18], cam[19], cam[20], cam[21], cam[22],
          cam[23])

@@ -45,85 +45,114 @@ def sample_light(S, k, p, n, u1, u2):
     t = S.li_type[k]
     lf = S.li_f
     L = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
-    zero = (0.0, 0.0, 0.0)
-    pos = _col(lf, k, 3)
     if t == D.POINT:
-        v = sub(pos, p)
-        d2 = dot(v, v)
-        if d2 <= 0.0:
-            return (0.0, 0.0, 1.0), 0.0, zero
-        d = math.sqrt(d2)
-        r = 1.0 / d
-        inv = r * r
-        return (v[0] * r, v[1] * r, v[2] * r), d, (L[0] * inv, L[1] * inv, L[2] * inv)
+        return _sample_point(lf, k, p, L)
     if t == D.RECT or t == D.DISK:
-        ex = _col(lf, k, 0)
-        ey = _col(lf, k, 1)
-        if t == D.RECT:
-            a = (u1 - 0.5) * lf[k, LF_W]
-            b = (u2 - 0.5) * lf[k, LF_H]
-        else:
-            r = lf[k, LF_RADIUS] * math.sqrt(u1)
-            phi = 2.0 * math.pi * u2
-            a = r * math.cos(phi)
-            b = r * math.sin(phi)
-        q = (pos[0] + a * ex[0] + b * ey[0], pos[1] + a * ex[1] + b * ey[1], pos[2] + a * ex[2] + b * ey[2])
-        v = sub(q, p)
-        d2 = dot(v, v)
-        if d2 <= 0.0:
-            return (0.0, 0.0, 1.0), 0.0, zero
-        d = math.sqrt(d2)
-        r = 1.0 / d
-        wi = (v[0] * r, v[1] * r, v[2] * r)
-        nl = normalize(_col(lf, k, 2))            # light emits along local -Z
-        cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
-        if cos_l <= 0.0:
-            return wi, d, zero
-        g = cos_l * lf[k, LF_AREA] * (r * r)
-        return wi, d, (L[0] * g, L[1] * g, L[2] * g)
+        return _sample_area(lf, k, t, p, u1, u2, L)
     if t == D.SPHERE:
-        r = lf[k, LF_RADIUS]
-        v = sub(pos, p)
-        d2 = dot(v, v)
-        if d2 <= r * r:
-            return (0.0, 0.0, 1.0), 0.0, zero
-        d = math.sqrt(d2)
-        rd = 1.0 / d
-        w = (v[0] * rd, v[1] * rd, v[2] * rd)
-        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
+        return _sample_sphere(lf, k, p, u1, u2, L)
+    if t == D.DISTANT:
+        return _sample_distant(lf, k, u1, u2, L)
+    if t == D.DOME:
+        return _sample_dome(S, k, n, u1, u2)
+    return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+
+
+@nb.njit(**INLINE_JIT)
+def _sample_point(lf, k, p, L):
+    """A point light of intensity L: inverse-square falloff."""
+    v = sub(_col(lf, k, 3), p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+    d = math.sqrt(d2)
+    r = 1.0 / d
+    inv = r * r
+    return (v[0] * r, v[1] * r, v[2] * r), d, (L[0] * inv, L[1] * inv, L[2] * inv)
+
+
+@nb.njit(**INLINE_JIT)
+def _sample_area(lf, k, t, p, u1, u2, L):
+    """A point uniformly on a rect (t == D.RECT) or disk light of radiance L, as seen from p."""
+    pos = _col(lf, k, 3)
+    ex = _col(lf, k, 0)
+    ey = _col(lf, k, 1)
+    if t == D.RECT:
+        a = (u1 - 0.5) * lf[k, LF_W]
+        b = (u2 - 0.5) * lf[k, LF_H]
+    else:
+        r = lf[k, LF_RADIUS] * math.sqrt(u1)
+        phi = 2.0 * math.pi * u2
+        a = r * math.cos(phi)
+        b = r * math.sin(phi)
+    q = (pos[0] + a * ex[0] + b * ey[0], pos[1] + a * ex[1] + b * ey[1], pos[2] + a * ex[2] + b * ey[2])
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+    d = math.sqrt(d2)
+    r = 1.0 / d
+    wi = (v[0] * r, v[1] * r, v[2] * r)
+    nl = normalize(_col(lf, k, 2))            # light emits along local -Z
+    cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
+    if cos_l <= 0.0:
+        return wi, d, (0.0, 0.0, 0.0)
+    g = cos_l * lf[k, LF_AREA] * (r * r)
+    return wi, d, (L[0] * g, L[1] * g, L[2] * g)
+
+
+@nb.njit(**INLINE_JIT)
+def _sample_sphere(lf, k, p, u1, u2, L):
+    """A direction uniformly in the cone a sphere light subtends at p."""
+    r = lf[k, LF_RADIUS]
+    v = sub(_col(lf, k, 3), p)
+    d2 = dot(v, v)
+    if d2 <= r * r:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+    d = math.sqrt(d2)
+    rd = 1.0 / d
+    w = (v[0] * rd, v[1] * rd, v[2] * rd)
+    cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
+    cos_t = 1.0 - u1 * (1.0 - cos_max)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * math.pi * u2
+    tt, bb = onb(w)
+    wi = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+    # distance to the sphere surface along wi
+    bq = d * cos_t
+    dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
+    omega = 2.0 * math.pi * (1.0 - cos_max)
+    return wi, dist, (L[0] * omega, L[1] * omega, L[2] * omega)
+
+
+@nb.njit(**INLINE_JIT)
+def _sample_distant(lf, k, u1, u2, L):
+    """A distant light: its direction, or one uniformly in its cone of angular diameter `angle`."""
+    w = normalize(_col(lf, k, 2))            # direction towards the light: local +Z
+    cos_max = lf[k, LF_COS_MAX]
+    if cos_max < 1.0:
         cos_t = 1.0 - u1 * (1.0 - cos_max)
         sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
         phi = 2.0 * math.pi * u2
         tt, bb = onb(w)
-        wi = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
-        # distance to the sphere surface along wi
-        bq = d * cos_t
-        dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
-        omega = 2.0 * math.pi * (1.0 - cos_max)
-        return wi, dist, (L[0] * omega, L[1] * omega, L[2] * omega)
-    if t == D.DISTANT:
-        w = normalize(_col(lf, k, 2))            # direction towards the light: local +Z
-        cos_max = lf[k, LF_COS_MAX]
-        if cos_max < 1.0:
-            cos_t = 1.0 - u1 * (1.0 - cos_max)
-            sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-            phi = 2.0 * math.pi * u2
-            tt, bb = onb(w)
-            w = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
-        return w, INF, L
-    if t == D.DOME:
-        # cosine-weighted hemisphere about n: estimate of the irradiance integral is L(wi) * pi / cos
-        r = math.sqrt(u1)
-        phi = 2.0 * math.pi * u2
-        z = math.sqrt(max(0.0, 1.0 - u1))
-        tt, bb = onb(n)
-        wi = to_world((r * math.cos(phi), r * math.sin(phi), z), tt, bb, n)
-        if z <= 1e-8:
-            return wi, INF, zero
-        Le = dome_radiance(S, k, wi)
-        s = math.pi / z
-        return wi, INF, (Le[0] * s, Le[1] * s, Le[2] * s)
-    return (0.0, 0.0, 1.0), 0.0, zero
+        w = to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+    return w, INF, L
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _sample_dome(S, k, n, u1, u2):
+    """A dome light: cosine-weighted hemisphere about n; the estimate of the irradiance integral is
+    L(wi) * pi / cos."""
+    r = math.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    z = math.sqrt(max(0.0, 1.0 - u1))
+    tt, bb = onb(n)
+    wi = to_world((r * math.cos(phi), r * math.sin(phi), z), tt, bb, n)
+    if z <= 1e-8:
+        return wi, INF, (0.0, 0.0, 0.0)
+    Le = dome_radiance(S, k, wi)
+    s = math.pi / z
+    return wi, INF, (Le[0] * s, Le[1] * s, Le[2] * s)
 
 
 @nb.njit(**SHADING_JIT)

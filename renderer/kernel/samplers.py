@@ -64,7 +64,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-from .dimensions import DIM_LENS, DIM_PIXEL
+from .dimensions import DIM_LENS, DIM_PIXEL, lens_dim, pixel_dim
 from .jit import INLINE_JIT, JIT, SHADING_JIT
 
 # --------------------------------------------------------------------------- public constants
@@ -469,8 +469,8 @@ def sample_pixel_lens(sampler, seed, pixel, index, spp):
     two `sample_2d` calls; the Sobol' sampler computes its 4D point once (~35 % less time)."""
     if sampler == SOBOL:
         return sobol_sample_4d(np.int64(seed) & _M32, np.int64(pixel), np.int64(index))
-    a, b = sample_2d(sampler, seed, pixel, index, spp, DIM_PIXEL)
-    lu, lv = sample_2d(sampler, seed, pixel, index, spp, DIM_LENS)
+    a, b = sample_2d(sampler, seed, pixel, index, spp, pixel_dim())
+    lu, lv = sample_2d(sampler, seed, pixel, index, spp, lens_dim())
     return a, b, lu, lv
 
 

@@ -22,11 +22,12 @@ from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
 @nb.njit(**SHADING_INLINE_JIT)
-def surface(S, scene, inst_id, inst_prim, geom_id, prim_id, bu, bv, o, d, t, time, m, m32):
-    """-> (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
+def surface(S, scene, hit, o, d, time, m, m32):
+    """The surface at `hit` (a `records.Hit`) of the ray (o, d): (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
     Moving placements take their matrix from Embree (interpolated exactly as it was traced: lerped
     or, for rotations, slerped); static ones use our float64 matrix.
     ng: unit geometric normal (outward), ns: unit shading normal, st: texture coordinates."""
+    inst_id, inst_prim, geom_id, prim_id, bu, bv, t = hit
     row = S.grp_base[inst_id] + inst_prim
     proto = S.in_proto[row]
     g = S.pr_geom_gp[S.pr_geom_off[proto] + geom_id]

@@ -40,13 +40,14 @@ import numpy as np
 from numba import types
 
 from .jit import INLINE_JIT
+from .records import Hit, Packet
 
 __all__ = [
     "SYMBOL_PREFIX", "EXTERNAL_FUNCTIONS",
     "rtcIntersect1", "rtcOccluded1", "rtcIntersect16", "rtcOccluded16", "rtcGetGeometry",
     "rtcGetGeometryTransformEx",
-    "new_ray_buffer", "intersect1", "occluded1", "instance_transform",
-    "new_packet16", "set_ray16", "intersect16", "occluded16",
+    "new_ray_buffer", "intersect1", "occluded1", "hit_of", "instance_transform",
+    "new_packet16", "set_ray16", "intersect16", "occluded16", "lane_hit",
 ]
 
 SYMBOL_PREFIX = "rtc_emb4_"        # host/embree.py registers LIB.<name> as SYMBOL_PREFIX + <name>
@@ -86,10 +87,6 @@ INVALID = 0xFFFFFFFF
 _ALL_MASK = 0xFFFFFFFF
 _XFM_ROW_MAJOR = 0x9134
 
-# bare tracing loops: rays per work item, and the prime stride that scatters work items over
-# threads (numba hands each thread a contiguous block of a prange; images are not uniform)
-CHUNK = 256
-_SCATTER = 7919
 
 
 # ----------------------------------------------------------------------------- single rays
@@ -102,14 +99,14 @@ def new_ray_buffer():
 
 
 @numba.njit(**INLINE_JIT)
-def _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
-    f[ORG_X] = ox
-    f[ORG_Y] = oy
-    f[ORG_Z] = oz
+def _set_ray(f, u, o, d, tnear, tfar, time):
+    f[ORG_X] = o[0]
+    f[ORG_Y] = o[1]
+    f[ORG_Z] = o[2]
     f[TNEAR] = tnear
-    f[DIR_X] = dx
-    f[DIR_Y] = dy
-    f[DIR_Z] = dz
+    f[DIR_X] = d[0]
+    f[DIR_Y] = d[1]
+    f[DIR_Z] = d[2]
     f[TIME] = time
     f[TFAR] = tfar
     u[MASK] = _ALL_MASK
@@ -118,10 +115,11 @@ def _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
 
 
 @numba.njit(**INLINE_JIT)
-def intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
-    """Closest hit of one ray; True if something was hit (then f[TFAR] = t and the hit fields are
-    set).  scene: ``Scene.handle``; f, u: ``new_ray_buffer()``; time in [0, 1] (shutter)."""
-    _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
+def intersect1(scene, f, u, o, d, tnear, tfar, time):
+    """Closest hit of the ray (origin o, direction d: triples); True if something was hit (then
+    f[TFAR] = t and the hit fields are set, read them with `hit_of`).  scene: ``Scene.handle``;
+    f, u: ``new_ray_buffer()``; time in [0, 1] (shutter)."""
+    _set_ray(f, u, o, d, tnear, tfar, time)
     u[GEOM_ID] = INVALID
     u[INST_ID] = INVALID
     u[INST_PRIM_ID] = INVALID
@@ -130,12 +128,18 @@ def intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
 
 
 @numba.njit(**INLINE_JIT)
-def occluded1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
+def occluded1(scene, f, u, o, d, tnear, tfar, time):
     """True if anything lies on the ray within [tnear, tfar] (any hit; uses the first 48 B of
     the buffer: Embree sets tfar to -inf when occluded)."""
-    _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time)
+    _set_ray(f, u, o, d, tnear, tfar, time)
     rtcOccluded1(scene, f.ctypes.data, 0)
     return f[TFAR] == -np.inf
+
+
+@numba.njit(**INLINE_JIT)
+def hit_of(f, u):
+    """The `Hit` in a ray buffer after `intersect1` returned True (or `lane_hit` copied one)."""
+    return Hit(u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID], float(f[U]), float(f[V]), float(f[TFAR]))
 
 
 @numba.njit(**INLINE_JIT)
@@ -150,26 +154,28 @@ def instance_transform(scene, inst_id, inst_prim_id, time, out):
 # ----------------------------------------------------------------------------- packets of 16
 @numba.njit(**INLINE_JIT)
 def new_packet16():
-    """(valid int32[16], float32[336], uint32[336]) for RTCRayHit16 packets, 64-B aligned.
+    """A `Packet`: (valid int32[16], float32[336], uint32[336]) for RTCRayHit16, 64-B aligned.
     One over-allocated array: numba only guarantees 32-B alignment."""
     raw = np.empty(PACKET_FLOATS + PACKET + 16, np.float32)
     start = ((64 - raw.ctypes.data % 64) % 64) // 4
     f = raw[start:start + PACKET_FLOATS]
     valid = raw[start + PACKET_FLOATS:start + PACKET_FLOATS + PACKET].view(np.int32)   # 1344 B: 64-B aligned
     valid[:] = 0
-    return valid, f, f.view(np.uint32)
+    return Packet(valid, f, f.view(np.uint32))
 
 
 @numba.njit(**INLINE_JIT)
-def set_ray16(valid, f, u, lane, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
+def set_ray16(packet, lane, o, d, tnear, tfar, time):
     """Fill lane ``lane`` of a packet with a ray (and mark it valid / reset its hit ids)."""
-    f[ORG_X * PACKET + lane] = ox
-    f[ORG_Y * PACKET + lane] = oy
-    f[ORG_Z * PACKET + lane] = oz
+    f = packet.f
+    u = packet.u
+    f[ORG_X * PACKET + lane] = o[0]
+    f[ORG_Y * PACKET + lane] = o[1]
+    f[ORG_Z * PACKET + lane] = o[2]
     f[TNEAR * PACKET + lane] = tnear
-    f[DIR_X * PACKET + lane] = dx
-    f[DIR_Y * PACKET + lane] = dy
-    f[DIR_Z * PACKET + lane] = dz
+    f[DIR_X * PACKET + lane] = d[0]
+    f[DIR_Y * PACKET + lane] = d[1]
+    f[DIR_Z * PACKET + lane] = d[2]
     f[TIME * PACKET + lane] = time
     f[TFAR * PACKET + lane] = tfar
     u[MASK * PACKET + lane] = _ALL_MASK
@@ -178,108 +184,31 @@ def set_ray16(valid, f, u, lane, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     u[GEOM_ID * PACKET + lane] = INVALID
     u[INST_ID * PACKET + lane] = INVALID
     u[INST_PRIM_ID * PACKET + lane] = INVALID
-    valid[lane] = -1
+    packet.valid[lane] = -1
 
 
 @numba.njit(**INLINE_JIT)
-def intersect16(scene, valid, f):
+def intersect16(scene, packet):
     """Closest hits of the valid lanes; lane j hit iff u[GEOM_ID * 16 + j] != INVALID."""
-    rtcIntersect16(valid.ctypes.data, scene, f.ctypes.data, 0)
+    rtcIntersect16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
 
 
 @numba.njit(**INLINE_JIT)
-def occluded16(scene, valid, f):
+def occluded16(scene, packet):
     """Occlusion of the valid lanes; lane j occluded iff f[TFAR * 16 + j] == -inf."""
-    rtcOccluded16(valid.ctypes.data, scene, f.ctypes.data, 0)
-
-
-# ----------------------------------------------------------------------------- bare tracing loops
-@numba.njit(**INLINE_JIT)
-def _work_item(i, n_items):
-    """Visit work items in the order (i * 7919) % n (a permutation unless 7919 divides n)."""
-    stride = _SCATTER if n_items % _SCATTER != 0 else 1
-    return (i * stride) % n_items
-
-
-@numba.njit(parallel=True, nogil=True, cache=True)
-def trace_rays(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
-    """Closest hit for n rays with rtcIntersect1.  origins, dirs: float32 (n, 3); tnear, tfar,
-    time: float32 (n,).  out_t float32 (n,) = hit t (tfar on a miss); out_ids uint32 (n, 4) =
-    primID, geomID, instID, instPrimID (all INVALID on a miss)."""
-    n = origins.shape[0]
-    n_items = (n + CHUNK - 1) // CHUNK
-    for i in numba.prange(n_items):
-        item = _work_item(i, n_items)
-        f, u = new_ray_buffer()
-        for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
-            hit = intersect1(scene, f, u, origins[r, 0], origins[r, 1], origins[r, 2],
-                             dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
-            out_t[r] = f[TFAR]
-            out_ids[r, 0] = u[PRIM_ID] if hit else INVALID
-            out_ids[r, 1] = u[GEOM_ID]
-            out_ids[r, 2] = u[INST_ID]
-            out_ids[r, 3] = u[INST_PRIM_ID]
-
-
-@numba.njit(parallel=True, nogil=True, cache=True)
-def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded):
-    """Occlusion for n rays with rtcOccluded1 (arguments as ``trace_rays``); out_occluded bool (n,)."""
-    n = origins.shape[0]
-    n_items = (n + CHUNK - 1) // CHUNK
-    for i in numba.prange(n_items):
-        item = _work_item(i, n_items)
-        f, u = new_ray_buffer()
-        for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
-            out_occluded[r] = occluded1(scene, f, u, origins[r, 0], origins[r, 1], origins[r, 2],
-                                        dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
+    rtcOccluded16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
 
 
 @numba.njit(**INLINE_JIT)
-def _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time):
-    """Fill a 16-ray packet with rays [first, min(first + 16, end)); returns the number of lanes."""
-    lanes = min(PACKET, end - first)
-    valid[:] = 0
-    for j in range(lanes):
-        r = first + j
-        set_ray16(valid, f, u, j, origins[r, 0], origins[r, 1], origins[r, 2],
-                  dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
-    return lanes
-
-
-@numba.njit(parallel=True, nogil=True, cache=True)
-def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
-    """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
-    e.g. 4x4 pixel tiles, for packets to pay off)."""
-    n = origins.shape[0]
-    n_items = (n + CHUNK - 1) // CHUNK
-    for i in numba.prange(n_items):
-        item = _work_item(i, n_items)
-        valid, f, u = new_packet16()
-        end = min(n, (item + 1) * CHUNK)
-        for first in range(item * CHUNK, end, PACKET):
-            lanes = _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time)
-            intersect16(scene, valid, f)
-            for j in range(lanes):
-                r = first + j
-                out_t[r] = f[TFAR * PACKET + j]
-                geom = u[GEOM_ID * PACKET + j]
-                out_ids[r, 0] = u[PRIM_ID * PACKET + j] if geom != INVALID else INVALID
-                out_ids[r, 1] = geom
-                out_ids[r, 2] = u[INST_ID * PACKET + j]
-                out_ids[r, 3] = u[INST_PRIM_ID * PACKET + j]
-
-
-@numba.njit(parallel=True, nogil=True, cache=True)
-def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded):
-    """``occlude_rays`` with rtcOccluded16 on consecutive groups of 16 rays."""
-    n = origins.shape[0]
-    n_items = (n + CHUNK - 1) // CHUNK
-    for i in numba.prange(n_items):
-        item = _work_item(i, n_items)
-        valid, f, u = new_packet16()
-        end = min(n, (item + 1) * CHUNK)
-        for first in range(item * CHUNK, end, PACKET):
-            lanes = _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time)
-            occluded16(scene, valid, f)
-            for j in range(lanes):
-                out_occluded[first + j] = f[TFAR * PACKET + j] == -np.inf
+def lane_hit(packet, lane, f, u):
+    """Copy lane `lane` of a traced packet into the single-ray buffer (f, u); True on a hit."""
+    cf = packet.f
+    cu = packet.u
+    f[TFAR] = cf[TFAR * PACKET + lane]
+    f[U] = cf[U * PACKET + lane]
+    f[V] = cf[V * PACKET + lane]
+    u[PRIM_ID] = cu[PRIM_ID * PACKET + lane]
+    u[GEOM_ID] = cu[GEOM_ID * PACKET + lane]
+    u[INST_ID] = cu[INST_ID * PACKET + lane]
+    u[INST_PRIM_ID] = cu[INST_PRIM_ID * PACKET + lane]
+    return u[GEOM_ID] != INVALID

@@ -39,7 +39,7 @@ def test_packet_rays_equal_scalar_rays(case):
             lv[:6] = (0.5, 0.8, 0.5, 0.25, 0.75, 0.1)
         n = 16 if trial % 3 else int(rng.integers(1, 16))
         o[:] = d[:] = np.nan
-        camera_rays(table, n, fx, fy, lu, lv, tm, o, d)
+        camera_rays(table, n, fx, fy, (lu, lv), tm, o, d)
         for j in range(n):
             wo, wd = generate_ray(table, fx[j], fy[j], lu[j], lv[j], tm[j])
             assert tuple(o[:, j]) == wo and tuple(d[:, j]) == wd
@@ -55,7 +55,7 @@ def test_thin_lens_rays_meet_at_the_focal_plane():
     fx, fy = np.full(16, 0.3), np.full(16, 0.7)
     rng = np.random.default_rng(4)
     o, d = np.zeros((3, 16)), np.zeros((3, 16))
-    camera_rays(table, 16, fx, fy, rng.random(16), rng.random(16), np.zeros(16), o, d)
+    camera_rays(table, 16, fx, fy, (rng.random(16), rng.random(16)), np.zeros(16), o, d)
     pin_o, pin_d = generate_ray(camera_table(_camera(), 64, 48, np.zeros(3)), 0.3, 0.7, 0.5, 0.5, 0.0)
     R = cam.matrix[:3, :3]
     view = -R[:, 2]

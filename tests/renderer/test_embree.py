@@ -8,6 +8,7 @@ import numba
 import numpy as np
 import pytest
 
+from benchmarks import embree_loops
 from rtc.renderer.kernel import trace
 from rtc.renderer.host.embree import Device, EmbreeError, InstanceGroup, decompose_affine, rtcNewGeometry
 
@@ -31,8 +32,8 @@ def _probe(scene, origins, dirs, time):
     ids = np.full((n, 4), INVALID, np.uint32)
     f, u = trace.new_ray_buffer()
     for i in range(n):
-        if trace.intersect1(scene, f, u, origins[i, 0], origins[i, 1], origins[i, 2],
-                            dirs[i, 0], dirs[i, 1], dirs[i, 2], 0.0, np.inf, time[i]):
+        if trace.intersect1(scene, f, u, (origins[i, 0], origins[i, 1], origins[i, 2]),
+                            (dirs[i, 0], dirs[i, 1], dirs[i, 2]), 0.0, np.inf, time[i]):
             t[i] = f[trace.TFAR]
             ng[i, 0], ng[i, 1], ng[i, 2] = f[trace.NG_X], f[trace.NG_Y], f[trace.NG_Z]
             uv[i, 0], uv[i, 1] = f[trace.U], f[trace.V]
@@ -44,7 +45,7 @@ def _probe(scene, origins, dirs, time):
 @numba.njit
 def _occluded(scene, o, d, tfar):
     f, u = trace.new_ray_buffer()
-    return trace.occluded1(scene, f, u, o[0], o[1], o[2], d[0], d[1], d[2], 0.0, tfar, 0.0)
+    return trace.occluded1(scene, f, u, (o[0], o[1], o[2]), (d[0], d[1], d[2]), 0.0, tfar, 0.0)
 
 
 @numba.njit
@@ -297,7 +298,7 @@ def test_packets_agree_with_single_rays(dev):
     top, rays = _random_scene_and_rays(dev, 10_000)
     n = len(rays[0])
     results = []
-    for kernel in (trace.trace_rays, trace.trace_rays16):
+    for kernel in (embree_loops.trace_rays, embree_loops.trace_rays16):
         t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
         kernel(top.handle, *rays, t, ids)
         results.append((t, ids))
@@ -310,13 +311,13 @@ def test_packets_agree_with_single_rays(dev):
     assert (t1[~hit] == rays[3][~hit]).all()          # misses leave tfar
 
     occluded1, occluded16 = np.empty(n, bool), np.empty(n, bool)
-    trace.occlude_rays(top.handle, *rays, occluded1)
-    trace.occlude_rays16(top.handle, *rays, occluded16)
+    embree_loops.occlude_rays(top.handle, *rays, occluded1)
+    embree_loops.occlude_rays16(top.handle, *rays, occluded16)
     assert (occluded1 == hit).mean() > 0.999 and (occluded16 == occluded1).mean() > 0.999
 
     single = probe(top, rays[0][:500], rays[1][:500], 0.0)[3]   # inline helper == bare loop (time 0)
     t0, ids0 = np.empty(500, np.float32), np.empty((500, 4), np.uint32)
-    trace.trace_rays(top.handle, rays[0][:500], rays[1][:500], rays[2][:500], np.full(500, np.inf, np.float32),
+    embree_loops.trace_rays(top.handle, rays[0][:500], rays[1][:500], rays[2][:500], np.full(500, np.inf, np.float32),
                      np.zeros(500, np.float32), t0, ids0)
     assert (single == ids0).all()
 
@@ -324,7 +325,7 @@ def test_packets_agree_with_single_rays(dev):
 def test_cached_kernels_load_in_a_fresh_process(tmp_path):
     script = textwrap.dedent("""
         import numpy as np
-        from rtc.renderer.kernel import trace
+        from benchmarks import embree_loops
         from rtc.renderer.host.embree import Device, InstanceGroup
         with Device() as dev:
             proto = dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)])
@@ -333,11 +334,27 @@ def test_cached_kernels_load_in_a_fresh_process(tmp_path):
                 o, d = np.array([[0, 0, 5]], np.float32), np.array([[0, 0, -1]], np.float32)
                 t, ids = np.empty(1, np.float32), np.empty((1, 4), np.uint32)
                 z = np.zeros(1, np.float32)
-                trace.trace_rays(top.handle, o, d, z, z + np.inf, z, t, ids)
+                embree_loops.trace_rays(top.handle, o, d, z, z + np.inf, z, t, ids)
         assert abs(t[0] - 4) < 1e-6, t
-        print(sum(trace.trace_rays.stats.cache_hits.values()))
+        print(sum(embree_loops.trace_rays.stats.cache_hits.values()))
     """)
     env = dict(os.environ, NUMBA_CACHE_DIR=str(tmp_path), PYTHONPATH=ROOT)
     hits = [int(subprocess.run([sys.executable, "-c", script], env=env, cwd=ROOT, check=True,
                                capture_output=True, text=True).stdout.strip()) for _ in range(2)]
     assert hits == [0, 1]
+
+
+def test_kernel_symbols_are_registered_by_the_binding():
+    """Every Embree function the kernels declare by name resolves, once the binding is imported, to
+    the library's own entry point; the ABI values the kernels hard-code are the binding's."""
+    import ctypes
+
+    import llvmlite.binding as llvm
+
+    from rtc.renderer.host import embree
+    assert set(trace.EXTERNAL_FUNCTIONS) >= {'rtcIntersect1', 'rtcOccluded1', 'rtcIntersect16', 'rtcOccluded16'}
+    for name in trace.EXTERNAL_FUNCTIONS:
+        address = llvm.address_of_symbol(trace.SYMBOL_PREFIX + name)
+        assert address == ctypes.cast(getattr(embree.LIB, name), ctypes.c_void_p).value, name
+    assert trace.INVALID == embree.RTC_INVALID_GEOMETRY_ID
+    assert trace._XFM_ROW_MAJOR == embree.RTC_FORMAT_FLOAT3X4_ROW_MAJOR

@@ -9,7 +9,7 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.render import RenderOptions, Renderer, render
 from rtc.renderer.kernel.shapes import surface
-from rtc.renderer.kernel.trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, TFAR, U, V, intersect1, new_ray_buffer
+from rtc.renderer.kernel.trace import hit_of, intersect1, new_ray_buffer
 
 from tests.renderer.handmade import look_at, ortho_down, point_light, quad, rect_light, scene, static_instances, translate
 
@@ -100,9 +100,8 @@ def _hit_normals(S, scene_handle, origins, dirs, out_p, out_n):
         o = (origins[i, 0], origins[i, 1], origins[i, 2])
         d = (dirs[i, 0], dirs[i, 1], dirs[i, 2])
         out_n[i, 0] = np.nan
-        if intersect1(scene_handle, f, u, o[0], o[1], o[2], d[0], d[1], d[2], 0.0, np.inf, 0.0):
-            p, ng, ns, st, g, mat = surface(S, scene_handle, u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID],
-                                            float(f[U]), float(f[V]), o, d, float(f[TFAR]), 0.0, m, m32)
+        if intersect1(scene_handle, f, u, o, d, 0.0, np.inf, 0.0):
+            p, ng, ns, st, g, mat = surface(S, scene_handle, hit_of(f, u), o, d, 0.0, m, m32)
             for k in range(3):
                 out_p[i, k] = p[k]
                 out_n[i, k] = ng[k]

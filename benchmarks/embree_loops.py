@@ -1,0 +1,125 @@
+"""Bare Embree loops for the benchmarks and tests: rays in, hits out, no shading.
+
+They measure what Embree alone costs on given rays (benchmarks/bench_embree.py, bench_render.py's
+replay of the renderer's own rays) and check packets against single rays (tests/renderer/test_embree.py).
+They use the renderer's ray queries (`rtc.renderer.kernel.trace`) but are no part of the renderer:
+nothing in it imports this module, so no render compiles or loads them.
+"""
+from __future__ import annotations
+
+import numba
+import numpy as np
+
+from rtc.renderer.kernel.jit import INLINE_JIT, JIT
+from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, intersect1,
+                                       intersect16, new_packet16, new_ray_buffer, occluded1, occluded16, set_ray16)
+
+# rays per work item, and the prime stride that scatters work items over threads (numba hands each
+# thread a contiguous block of a prange; images are not uniform)
+CHUNK = 256
+_SCATTER = 7919
+
+
+@numba.njit(**INLINE_JIT)
+def _work_item(i, n_items):
+    """Visit work items in the order (i * 7919) % n (a permutation unless 7919 divides n)."""
+    stride = _SCATTER if n_items % _SCATTER != 0 else 1
+    return (i * stride) % n_items
+
+
+@numba.njit(**JIT, parallel=True)
+def trace_rays(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
+    """Closest hit for n rays with rtcIntersect1.  origins, dirs: float32 (n, 3); tnear, tfar,
+    time: float32 (n,).  out_t float32 (n,) = hit t (tfar on a miss); out_ids uint32 (n, 4) =
+    primID, geomID, instID, instPrimID (all INVALID on a miss)."""
+    n = origins.shape[0]
+    n_items = (n + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        item = _work_item(i, n_items)
+        f, u = new_ray_buffer()
+        for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
+            hit = intersect1(scene, f, u, (origins[r, 0], origins[r, 1], origins[r, 2]),
+                             (dirs[r, 0], dirs[r, 1], dirs[r, 2]), tnear[r], tfar[r], time[r])
+            out_t[r] = f[TFAR]
+            out_ids[r, 0] = u[PRIM_ID] if hit else INVALID
+            out_ids[r, 1] = u[GEOM_ID]
+            out_ids[r, 2] = u[INST_ID]
+            out_ids[r, 3] = u[INST_PRIM_ID]
+
+
+@numba.njit(**JIT, parallel=True)
+def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded):
+    """Occlusion for n rays with rtcOccluded1 (arguments as ``trace_rays``); out_occluded bool (n,)."""
+    n = origins.shape[0]
+    n_items = (n + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        item = _work_item(i, n_items)
+        f, u = new_ray_buffer()
+        for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
+            out_occluded[r] = occluded1(scene, f, u, (origins[r, 0], origins[r, 1], origins[r, 2]),
+                                        (dirs[r, 0], dirs[r, 1], dirs[r, 2]), tnear[r], tfar[r], time[r])
+
+
+@numba.njit(**INLINE_JIT)
+def _load_packet(packet, first, end, origins, dirs, tnear, tfar, time):
+    """Fill a 16-ray packet with rays [first, min(first + 16, end)); returns the number of lanes."""
+    lanes = min(PACKET, end - first)
+    packet.valid[:] = 0
+    for j in range(lanes):
+        r = first + j
+        set_ray16(packet, j, (origins[r, 0], origins[r, 1], origins[r, 2]), (dirs[r, 0], dirs[r, 1], dirs[r, 2]),
+                  tnear[r], tfar[r], time[r])
+    return lanes
+
+
+@numba.njit(**JIT)
+def _trace_item16(scene, item, rays, out_t, out_ids):
+    """Work item `item` of `trace_rays16` (a function of its own: numba's parfor analysis of an
+    inlined packet record in the prange body gives wrong results)."""
+    origins, dirs, tnear, tfar, time = rays
+    n = origins.shape[0]
+    packet = new_packet16()
+    f, u = packet.f, packet.u
+    end = min(n, (item + 1) * CHUNK)
+    for first in range(item * CHUNK, end, PACKET):
+        lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
+        intersect16(scene, packet)
+        for j in range(lanes):
+            r = first + j
+            out_t[r] = f[TFAR * PACKET + j]
+            geom = u[GEOM_ID * PACKET + j]
+            out_ids[r, 0] = u[PRIM_ID * PACKET + j] if geom != INVALID else INVALID
+            out_ids[r, 1] = geom
+            out_ids[r, 2] = u[INST_ID * PACKET + j]
+            out_ids[r, 3] = u[INST_PRIM_ID * PACKET + j]
+
+
+@numba.njit(**JIT, parallel=True)
+def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
+    """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
+    e.g. 4x4 pixel tiles, for packets to pay off)."""
+    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids)
+
+
+@numba.njit(**JIT)
+def _occlude_item16(scene, item, rays, out_occluded):
+    """Work item `item` of `occlude_rays16`."""
+    origins, dirs, tnear, tfar, time = rays
+    n = origins.shape[0]
+    packet = new_packet16()
+    end = min(n, (item + 1) * CHUNK)
+    for first in range(item * CHUNK, end, PACKET):
+        lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
+        occluded16(scene, packet)
+        for j in range(lanes):
+            out_occluded[first + j] = packet.f[TFAR * PACKET + j] == -np.inf
+
+
+@numba.njit(**JIT, parallel=True)
+def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded):
+    """``occlude_rays`` with rtcOccluded16 on consecutive groups of 16 rays."""
+    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded)

@@ -1,0 +1,46 @@
+"""The ray recorder: every ray a render traces, for benchmarks/bench_render.py, which replays the
+renderer's own rays on bare Embree to separate Embree's time from the shading's.
+
+`render_pass(..., rec)` with `rec = new_ray_record(n_tiles, cap)` records; with `rec=None` (every
+render) numba compiles a specialisation in which each `if rec is not None:` branch is pruned before
+type inference, so rendering pays nothing for the feature (measured: benchmarks/RESULTS.md).
+"""
+from collections import namedtuple
+
+import numba as nb
+import numpy as np
+
+from .jit import INLINE_JIT
+
+# ray fields (float32 columns of RayRecord.rays)
+R_OX, R_OY, R_OZ, R_DX, R_DY, R_DZ, R_TNEAR, R_TFAR, R_TIME = range(9)
+R_FIELDS = 9
+
+RayRecord = namedtuple('RayRecord', ['rays', 'kind', 'count'])
+
+
+def new_ray_record(n_tiles, rays_per_tile):
+    """Room for `rays_per_tile` rays of each tile: rays float32 (n_tiles, cap, R_FIELDS), kind int8
+    (n_tiles, cap) (the integrator's RAYS_* counter of the ray), count int64 (n_tiles,) = rays traced,
+    including those beyond the capacity."""
+    return RayRecord(np.zeros((n_tiles, rays_per_tile, R_FIELDS), np.float32),
+                     np.full((n_tiles, rays_per_tile), -1, np.int8), np.zeros(n_tiles, np.int64))
+
+
+@nb.njit(**INLINE_JIT)
+def record(rec, tile, kind, o, d, tnear, tfar, time):
+    """Append the ray (o, d, [tnear, tfar], time) of kind `kind` to tile `tile`'s record."""
+    n = rec.count[tile]
+    if n < rec.rays.shape[1]:
+        r = rec.rays
+        r[tile, n, R_OX] = o[0]
+        r[tile, n, R_OY] = o[1]
+        r[tile, n, R_OZ] = o[2]
+        r[tile, n, R_DX] = d[0]
+        r[tile, n, R_DY] = d[1]
+        r[tile, n, R_DZ] = d[2]
+        r[tile, n, R_TNEAR] = tnear
+        r[tile, n, R_TFAR] = tfar
+        r[tile, n, R_TIME] = time
+        rec.kind[tile, n] = kind
+    rec.count[tile] = n + 1

@@ -1,0 +1,41 @@
+"""The named records the kernels pass around (numba compiles namedtuples to plain structs: inlined,
+they cost nothing; passed to a compiled function, a record crosses the call as its fields).
+
+Per render pass
+    PassParams      what a pass computes: camera table, image size, sample range, sampler, filter, seed,
+                    depth, whether the lens and the shutter are sampled
+    Tile            the pixels [x0, x1) x [y0, y1) of tile `index`
+Per thread (allocated once per tile by `render_pass`; the shading code allocates nothing)
+    Packet          an RTCRayHit16 packet: valid mask, float32 and uint32 views of its fields
+    ShadowQueue     first-hit shadow rays waiting to be traced as one rtcOccluded16 packet
+    Lanes           the camera stage's per-lane state (structure of arrays, so that loops vectorise)
+    Tracer          what tracing a path needs besides the scene tables: the Embree scene, the single-ray
+                    buffer, matrix scratch, ray counters, the shadow queue and the tile index
+Per path and bounce
+    SampleKey       (sampler, seed, pixel, index, spp): which sample's random numbers a path draws
+    Path            a path's sample key, its lane in the camera packet and its shutter time
+    Ray             origin and unit direction (float64 triples)
+    Hit             what Embree reports of a hit: placement (instance id, row), geometry, primitive,
+                    barycentrics and distance
+    ShadingPoint    a surface point ready to shade: position, geometric and shading normals (facing the
+                    viewer), texture coordinates, material and model, which side was hit, the direction
+                    to the viewer and the material's (textured) colours
+    PathState       radiance gathered so far, throughput, and the Beer attenuation of the current medium
+    Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
+"""
+from collections import namedtuple
+
+PassParams = namedtuple('PassParams', ['cam', 'width', 'height', 's0', 's1', 'spp', 'sampler', 'filt', 'seed',
+                                       'max_depth', 'use_lens', 'use_time'])
+Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
+Packet = namedtuple('Packet', ['valid', 'f', 'u'])
+ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
+Lanes = namedtuple('Lanes', ['o', 'd', 'time', 'ids', 'L', 'u', 'film', 'key32', 'work'])
+Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile'])
+SampleKey = namedtuple('SampleKey', ['sampler', 'seed', 'pixel', 'index', 'spp'])
+Path = namedtuple('Path', ['key', 'lane', 'time'])
+Ray = namedtuple('Ray', ['o', 'd'])
+Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v', 't'])
+ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks'])
+PathState = namedtuple('PathState', ['L', 'T', 'A'])
+Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])
