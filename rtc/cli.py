@@ -19,6 +19,8 @@ from pathlib import Path
 
 import click
 
+from .shot_cmd import shot_options
+
 EXIT_OK, EXIT_WARNINGS, EXIT_ERROR, EXIT_INTERRUPTED = 0, 1, 2, 130
 
 
@@ -100,8 +102,9 @@ class _StopFlag:
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
-@click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
+@click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz (a shot: skip the frames already written).')
 @click.option('-q', '--quiet', is_flag=True)
+@shot_options
 def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
                checkpoint, resume, quiet):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""

@@ -71,7 +71,8 @@ class BuiltScene:
         self.top.close()
         for p in self.prototypes:
             p.close()
-        self.device.close()
+        if self.device is not None:          # None once another build took the device over (`reuse`)
+            self.device.close()
 
 
 def _similarity_scale(m3: np.ndarray) -> float | None:
@@ -243,13 +244,19 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
     return li_type, li_f, li_tex
 
 
-def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
-    """Build Embree scenes (one per container + the top level) and the shading tables."""
+def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScene | None = None) -> BuiltScene:
+    """Build Embree scenes (one per container + the top level) and the shading tables.
+
+    `reuse`: the BuiltScene of a description whose containers are the same as `desc`'s (e.g. the
+    previous frame of a shot where only placements, the camera, lights or materials change): its
+    device and prototype BVHs are taken over and only the top level is built; `reuse` keeps nothing
+    (its top level is released) and must not be rendered afterwards."""
     inst = desc.instances
     origin = np.array(desc.camera.matrix[:3, 3], np.float64)
     containers = list(desc.containers)
     tables = _Tables()
-    dev = Device(threads=threads)
+    dev = reuse.device if reuse is not None else Device(threads=threads)
+    kept = list(reuse.prototypes) if reuse is not None else []
     protos, centers, pr_gp_start, pr_geom = [], [], [], []
     ellipsoids = []                                   # (container index, sphere index)
 
@@ -276,7 +283,7 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
             geom_to_gp.append(len(tables.kind))
             tables.add_sphere(cr, s.material)
             e_spheres.append(cr[None, :].astype(np.float32))
-        protos.append(dev.prototype_scene(e_meshes, e_spheres))
+        protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres))
         pr_geom.append(geom_to_gp)
 
     rows_proto = [np.asarray(inst.container, np.int64)]
@@ -291,7 +298,7 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
         pr_gp_start.append(len(tables.kind))
         pr_geom.append([len(tables.kind)])
         tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
-        protos.append(dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
+        protos.append(kept[unit] if kept else dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
         set_of = {}
         for ci, si in ellipsoids:
             sel = np.nonzero(rows_proto[0] == ci)[0]
@@ -347,6 +354,9 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
                                         np.ascontiguousarray(xf[rows, :steps].transpose(1, 0, 2, 3), np.float32)))
             order.append(rows)
     top = dev.top_scene(protos, groups)
+    if reuse is not None:                             # the prototypes and the device now belong to this build
+        reuse.top.close()
+        reuse.prototypes, reuse.device = [], None
     perm = np.concatenate(order) if order else np.zeros(0, np.int64)
     gids = list(top.group_geom_ids)
     grp_base = np.full(max(gids, default=0) + 1, -1, np.int64)
