@@ -16,6 +16,7 @@ import pickle
 import signal
 import statistics
 import sys
+import threading
 import time as _time
 import uuid
 from dataclasses import dataclass, field
@@ -151,8 +152,17 @@ def cluster(workers: int | None = None, scheduler: str | None = None, quiet: boo
         dashboard = '127.0.0.1:0'
     except ImportError:
         dashboard = None
-    with LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host='127.0.0.1',
-                      dashboard_address=dashboard, silence_logs=logging.CRITICAL) as lc, Client(lc) as client:
+    # the worker processes start with SIGINT ignored (inherited): Ctrl-C in a terminal signals the
+    # whole process group, and only this process should act on it (cancel, keep the frames, exit)
+    main_thread = threading.current_thread() is threading.main_thread()
+    old = signal.signal(signal.SIGINT, signal.SIG_IGN) if main_thread else None
+    try:
+        lc = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True, host='127.0.0.1',
+                          dashboard_address=dashboard, silence_logs=logging.CRITICAL)
+    finally:
+        if main_thread:
+            signal.signal(signal.SIGINT, old)
+    with lc, Client(lc) as client:
         yield client
 
 
