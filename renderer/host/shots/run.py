@@ -21,6 +21,8 @@ import time as _time
 import uuid
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from .. import film as film_mod
 from ..progress import _sig3
 from . import worker
@@ -205,7 +207,9 @@ class _Shot:
         if task.whole:
             r.bytes_from_worker.append(out['image'].nbytes)
             r.samples += o.width * o.height * o.spp
-            image = out['image']
+            # an array of its own: one Dask received can be a view into a larger message buffer,
+            # which OpenImageIO's writer refused ('buffer is wrong size') for 8x6 frames
+            image = np.array(out['image'], dtype=np.float32, order='C', copy=True)
         else:
             r.bytes_from_worker.append(out['samples'].nbytes)
             r.samples += o.width * o.height * (task.s1 - task.s0)
