@@ -100,3 +100,18 @@ def test_command_renders_a_shot(shot_path, reference, tmp_path):
     assert sorted(os.listdir(tmp_path)) == ['c.0002.exr', 'c.0004.exr']
     assert 'rendered 2 of 2 frames (32x24, 4 spp)' in p.stderr
     assert same_bits(tmp_path / 'c.0004.exr', reference(4))
+
+
+def test_prototypes_are_reused_only_when_their_geometry_is_the_same(shot_path):
+    import copy
+    from rtc.renderer.host.shots.worker import same_containers
+    from rtc.renderer.usd.stage import read_stage
+    a, b = read_stage(shot_path, time=1), read_stage(shot_path, time=3)
+    assert same_containers(a, b)                                      # only placements moved
+    assert not np.array_equal(a.instances.matrices, b.instances.matrices)
+    c = copy.deepcopy(b)
+    c.containers[0].meshes[0].points[0, 1] += 1e-9                   # one vertex, a hair
+    assert not same_containers(a, c)
+    d = copy.deepcopy(b)
+    d.containers[0].meshes.pop()
+    assert not same_containers(a, d)

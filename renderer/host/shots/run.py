@@ -149,11 +149,7 @@ def cluster(workers: int | None = None, scheduler: str | None = None, quiet: boo
         finally:
             client.close()
         return
-    try:
-        import bokeh  # noqa: F401  (the dashboard needs it)
-        dashboard = '127.0.0.1:0'
-    except ImportError:
-        dashboard = None
+    dashboard = '127.0.0.1:0' if _has_bokeh() else None
     # the worker processes start with SIGINT ignored (inherited): Ctrl-C in a terminal signals the
     # whole process group, and only this process should act on it (cancel, keep the frames, exit)
     main_thread = threading.current_thread() is threading.main_thread()
@@ -168,7 +164,19 @@ def cluster(workers: int | None = None, scheduler: str | None = None, quiet: boo
         yield client
 
 
-def _dashboard(client) -> str | None:
+def _has_bokeh() -> bool:
+    try:
+        import bokeh  # noqa: F401
+        return True
+    except ImportError:
+        return False
+
+
+def _dashboard(client, remote: bool) -> str | None:
+    """The dashboard's address: a remote scheduler's if it serves one, a local cluster's if bokeh
+    (which draws it) is installed."""
+    if not remote and not _has_bokeh():
+        return None
     try:
         services = client.scheduler_info().get('services', {})
         return client.dashboard_link if 'dashboard' in services else None
@@ -305,7 +313,7 @@ def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, sch
             job = worker.Job(**{**job.__dict__, 'threads': _thread_split(client)})
         if client is not None:
             result.workers = len(client.scheduler_info()['workers'])
-            result.dashboard = _dashboard(client)
+            result.dashboard = _dashboard(client, remote=bool(scheduler))
             if result.dashboard:
                 echo(f'rtc: Dask dashboard at {result.dashboard}')
         first = frames[0]
