@@ -115,7 +115,8 @@ def test_unreachable_scheduler_is_a_clear_error(shot_path, tmp_path):
 
 @pytest.fixture(scope='module')
 def scheduler(tmp_path_factory):
-    """`dask scheduler` and one `dask worker` as subprocesses (another working directory)."""
+    """`dask scheduler` and one `dask worker` (started as docs/cluster.md says) as subprocesses, in
+    another working directory."""
     d = tmp_path_factory.mktemp('dask')
     dask = os.path.join(os.path.dirname(sys.executable), 'dask')
     info = d / 'scheduler.json'
@@ -128,8 +129,9 @@ def scheduler(tmp_path_factory):
         import json
         time.sleep(0.2)
         address = json.loads(info.read_text())['address']
-        procs.append(subprocess.Popen([dask, 'worker', address, '--nthreads', '1', '--no-dashboard'], cwd=d,
-                                      stderr=subprocess.DEVNULL))
+        env = {**os.environ, 'DASK_DISTRIBUTED__WORKER__PROFILE__ENABLED': 'False'}     # as docs/cluster.md says
+        procs.append(subprocess.Popen([dask, 'worker', address, '--nthreads', '1', '--no-nanny', '--no-dashboard'],
+                                      cwd=d, stderr=subprocess.DEVNULL, env=env))
         with distributed.Client(address, timeout=30) as c:
             c.wait_for_workers(1, timeout=60)
         yield address
