@@ -14,24 +14,23 @@ from pathlib import Path
 
 import click
 
-EXIT_ERROR, EXIT_INTERRUPTED = 2, 130
+from .exits import EXIT_INTERRUPTED, fail as _fail
+
 MAX_WORKERS = 256
 
 
-def _fail(message: str, code: int = EXIT_ERROR):
-    click.echo(f'rtc: error: {message}', err=True)
-    sys.exit(code)
 
 
-def open_xml(path: str, *, width=None, height=None, spp=None):
-    """A course XML scene compiled to an in-memory stage (on a worker); SceneError if it cannot be."""
+def open_xml(path: str):
+    """A course XML scene compiled to an in-memory stage (on a worker); SceneError if it cannot be.
+    (The render options are resolved against its render settings by the reader, as for USD.)"""
     from .compiler.api import compile_to_stage
     from .compiler.diagnostics import CompileError
     from .renderer.errors import SceneError
     if not os.path.isfile(path):
         raise SceneError(f'{path}: no such file')
     try:
-        stage, _ = compile_to_stage(path, width=width, height=height, spp=spp)
+        stage, _ = compile_to_stage(path)
     except CompileError as e:
         raise SceneError('; '.join(str(d) for d in e.diagnostics[:3])) from None
     return stage
@@ -76,13 +75,14 @@ class _Usage(Exception):
     pass
 
 
-def render_shot(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
-                checkpoint, resume, quiet, frames_spec, frame_spec, workers, scheduler):
+def render_shot(scene, output, camera, checkpoint, resume, quiet, frames_spec, frame_spec, workers, scheduler,
+                **asked):
+    """`rtc render` with shot options: `asked` are the render options of the command line."""
     from .renderer.host import film as film_mod
-    from .renderer.host.render import RenderError, RenderOptions
     from .renderer.host.shots.frames import ShotError, output_name
     from .renderer.host.shots.run import ShotInterrupted, median, run_shot
     from .renderer.host.shots.worker import Job
+    from .scene_input import checked_options
     try:
         frames = _frames(frames_spec, frame_spec, output)
     except (ShotError, _Usage) as e:
@@ -100,18 +100,12 @@ def render_shot(scene, output, width, height, spp, sampler, filter_, seed, max_d
         _fail(f"{output}: unsupported image format '{out.suffix}' (use one of {', '.join(sorted(formats))})")
     if not out.parent.exists():
         _fail(f'{output}: directory {out.parent} does not exist')
-    opts = RenderOptions(width=width, height=height, spp=spp, sampler=sampler, filter=filter_, seed=seed,
-                         max_depth=max_depth, threads=threads)
-    try:
-        RenderOptions(**{**opts.__dict__, 'width': width or 1, 'height': height or 1, 'spp': spp or 1}).validate()
-    except RenderError as e:
-        _fail(str(e))
+    opts = checked_options(**asked)               # absurd values fail before any scene is read
     # the workers read the scene: a path that exists here is sent absolute (a shared file system
     # sees it at the same place); one that does not is sent as given (the workers may see it)
     path = os.path.abspath(scene) if os.path.exists(scene) else scene
-    opener = (functools.partial(open_xml, width=width, height=height, spp=spp)
-              if Path(scene).suffix.lower() == '.xml' else None)
-    job = Job(shot='', scene=path, options=opts, opener=opener, camera=camera, threads=threads)
+    opener = open_xml if Path(scene).suffix.lower() == '.xml' else None
+    job = Job(shot='', scene=path, options=opts, opener=opener, camera=camera, threads=opts.threads)
     echo = (lambda m: None) if quiet else (lambda m: click.echo(m, err=True))
     try:
         res = run_shot(job, frames, output, workers=workers, scheduler=scheduler, resume=resume, quiet=quiet,

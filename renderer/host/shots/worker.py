@@ -23,9 +23,10 @@ from typing import Callable, Optional
 
 import numpy as np
 
-from ...errors import SceneError
+from ...errors import RenderError, SceneError
+from ...options import RenderOptions
 from ..film import Film
-from ..render import RenderError, RenderOptions, Renderer
+from ..render import Renderer
 
 
 @dataclass(frozen=True)
@@ -33,7 +34,7 @@ class Job:
     """A shot as every worker needs it: which scene, which options (small: sent with every task)."""
     shot: str                          # unique per run of a shot: worker caches never outlive it
     scene: str                         # path of the stage (or course XML) as the workers see it
-    options: RenderOptions             # unresolved: sizes may come from the stage's render settings
+    options: RenderOptions             # as asked: resolved against the stage's render settings per frame
     opener: Optional[Callable] = None  # path -> Usd.Stage (e.g. the course XML compiler); None: USD
     camera: Optional[str] = None
     threads: Optional[int] = None      # numba / Embree threads of a render (None: all)
@@ -98,9 +99,8 @@ def _renderer(job: Job, time) -> tuple[Renderer, dict]:
     stage = _stage(job)
     if _state.get('time') == time and _state.get('renderer') is not None:
         return _state['renderer'], {'load_seconds': 0.0, 'build_seconds': 0.0, 'reused': 'frame'}
-    o = job.options
     t0 = _time.perf_counter()
-    desc = read_stage(stage, time=time, camera_path=job.camera, width=o.width, height=o.height, spp=o.spp)
+    desc = read_stage(stage, time=time, camera_path=job.camera, options=job.options)
     load = _time.perf_counter() - t0
     previous = _state.get('renderer')
     reuse = previous if job.reuse and previous is not None and same_containers(_state['desc'], desc) else None
@@ -143,7 +143,7 @@ def probe(job: Job, frame, time) -> dict:
     first task, so that the workers after it find the kernels in the cache."""
     def work():
         r, cost = _renderer(job, time)
-        o = job.options.resolved(r.desc.settings)
+        o = r.desc.options                                      # resolved by the reader
         film = Film(o.width, o.height)
         res = r.render(o, film=film, should_stop=lambda: True)     # no samples: the kernels only
         return {'options': o, 'warnings': list(r.desc.warnings), 'kernel_seconds': res.stats.kernel_seconds,
