@@ -22,6 +22,7 @@ import click
 from .exits import EXIT_INTERRUPTED, fail as _fail
 from .renderer_params import RendererCommand, renderer_option
 from .scene_input import checked_options, load_scene
+from .shot_cmd import shot_options
 
 __all__ = ['main', 'load_scene', 'checked_options']
 
@@ -96,8 +97,9 @@ def _resumed_film(ckpt_path: Path, resolved):
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
-@click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
+@click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz (a shot: skip the frames already written).')
 @click.option('-q', '--quiet', is_flag=True)
+@shot_options
 def render_cmd(scene, output, camera, checkpoint, resume, quiet, **asked):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
     # every option not named in the signature is a RenderOptions field (`asked`): a new render option

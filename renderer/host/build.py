@@ -57,7 +57,8 @@ class BuiltScene:
         self.top.close()
         for p in self.prototypes:
             p.close()
-        self.device.close()
+        if self.device is not None:          # None once another build took the device over (`reuse`)
+            self.device.close()
 
 
 def _similarity_scale(m3: np.ndarray) -> float | None:
@@ -216,10 +217,11 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
     return li_type, li_f, li_tex
 
 
-def _prototypes(dev: Device, containers: list, tables: _Tables):
+def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
     """One Embree scene per container, geometry re-centred on the container's centre; spheres that
     are not similarity-placed (ellipsoids) are left out and listed (container, sphere index) to be
-    placed as instances of the unit sphere.  -> (scenes, centres, radii, first gprim per container,
+    placed as instances of the unit sphere.  `kept`: the prototype scenes of an earlier build of the
+    same containers, taken over instead of built (empty: build them).  -> (scenes, centres, radii, first gprim per container,
     Embree geometry -> gprim per container, ellipsoids)."""
     protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = [], [], [], [], [], []
     for ci, c in enumerate(containers):
@@ -244,7 +246,7 @@ def _prototypes(dev: Device, containers: list, tables: _Tables):
             geom_to_gp.append(len(tables.kind))
             tables.add_sphere(cr, s.material)
             e_spheres.append(cr[None, :].astype(np.float32))
-        protos.append(dev.prototype_scene(e_meshes, e_spheres))
+        protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres))
         pr_geom.append(geom_to_gp)
     return protos, centers, radii, pr_gp_start, pr_geom, ellipsoids
 
@@ -311,14 +313,20 @@ def _top_level(dev: Device, protos: list, in_proto: np.ndarray, xf: np.ndarray, 
     return top, perm, grp_base
 
 
-def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
-    """Build Embree scenes (one per container + the top level) and the shading tables."""
+def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScene | None = None) -> BuiltScene:
+    """Build Embree scenes (one per container + the top level) and the shading tables.
+
+    `reuse`: the BuiltScene of a description whose containers are the same as `desc`'s (e.g. the
+    previous frame of a shot where only placements, the camera, lights or materials change): its
+    device and prototype BVHs are taken over and only the top level is built; `reuse` keeps nothing
+    (its top level is released) and must not be rendered afterwards."""
     inst = desc.instances
     origin = np.array(desc.camera.matrix[:3, 3], np.float64)
     containers = list(desc.containers)
     tables = _Tables()
-    dev = Device(threads=threads)
-    protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = _prototypes(dev, containers, tables)
+    dev = reuse.device if reuse is not None else Device(threads=threads)
+    kept = list(reuse.prototypes) if reuse is not None else []
+    protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = _prototypes(dev, containers, tables, kept)
 
     rows = {'proto': [np.asarray(inst.container, np.int64)], 'world': [np.asarray(inst.matrices, np.float64)],
             'set': [np.asarray(inst.material_set, np.int64)]}
@@ -330,7 +338,7 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
         pr_gp_start.append(len(tables.kind))
         pr_geom.append([len(tables.kind)])
         tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
-        protos.append(dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
+        protos.append(kept[unit] if kept else dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
         _ellipsoid_placements(containers, ellipsoids, unit, rows, material_sets)
 
     in_proto = np.concatenate(rows['proto'])
@@ -347,6 +355,9 @@ def build(desc: D.SceneDescription, threads: int | None = None) -> BuiltScene:
         xf[:, :, :, 3] -= origin
     flat, in_matset = _flat_material_sets(material_sets, set_rows)
     top, perm, grp_base = _top_level(dev, protos, in_proto, xf, K)
+    if reuse is not None:                             # the prototypes and the device now belong to this build
+        reuse.top.close()
+        reuse.prototypes, reuse.device = [], None
 
     mat_i, mat_f = _material_tables(desc.materials)
     tex_i, tex_f, tex_data = _texture_tables(desc.textures)
