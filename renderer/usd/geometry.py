@@ -24,7 +24,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from ..description import Mesh, Sphere
 
@@ -88,14 +88,50 @@ def _per_corner(values, interpolation: str, face: np.ndarray, corner: np.ndarray
     return None
 
 
-def _authored_normals(mesh: UsdGeom.Mesh, time):
-    """(values, interpolation) of primvars:normals if authored, else of `normals`, else None."""
+def flattened(pv: UsdGeom.Primvar, time, warn: Warn, consequence: str):
+    """A primvar's values expanded through its indices, or None with one warning naming the prim
+    and the attribute and saying in words what is wrong (an index past the values, an element
+    size other than one, values that are not an array): the attribute is lost, not the prim."""
+    where = f'{pv.GetAttr().GetPrim().GetPath()}: {pv.GetAttr().GetName()}'
+    size = pv.GetElementSize()
+    try:
+        values = pv.ComputeFlattened(time)
+    except Tf.ErrorException:
+        values = None
+    if values is None or not hasattr(values, '__len__'):
+        raw = pv.Get(time)
+        count = len(raw) if hasattr(raw, '__len__') else 0
+        if pv.IsIndexed():
+            indices = np.asarray(pv.GetIndices(time), np.int64)
+            top = int(indices.max()) if len(indices) else -1
+            noun = 'value' if count == 1 else 'values'
+            why = (f'its indices reach {top} but it has {count} {noun}' if size == 1 else
+                   f'its {len(indices)} indices of elements of {size} values do not fit its {count} {noun}')
+        else:
+            why = 'it has no readable array of values'
+        warn(f'{where} cannot be used ({why}); {consequence}')
+        return None
+    if size != 1:
+        warn(f'{where} has element size {size} (one value per element expected); {consequence}')
+        return None
+    return values
+
+
+def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
+    """(values, interpolation) of primvars:normals if authored, else of `normals`, else None;
+    ((), None) when authored but unusable (already warned about)."""
     pv = UsdGeom.PrimvarsAPI(mesh).GetPrimvar('normals')
     if pv and pv.HasAuthoredValue():
-        return pv.ComputeFlattened(time), pv.GetInterpolation()
+        values = flattened(pv, time, warn, 'normals computed from the faces instead')
+        return ((), None) if values is None else (values, pv.GetInterpolation())
     attr = mesh.GetNormalsAttr()
     if attr.HasAuthoredValue():
-        return attr.Get(time), mesh.GetNormalsInterpolation()
+        values = attr.Get(time)
+        if not hasattr(values, '__len__'):
+            warn(f'{mesh.GetPath()}: normals has no readable array of values; normals computed from the '
+                 'faces instead')
+            return ((), None)
+        return values, mesh.GetNormalsInterpolation()
     return None
 
 
@@ -139,23 +175,26 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
     if left:
         corner = corner[:, [0, 2, 1]]
 
-    normals = None
-    authored = _authored_normals(mesh, time)
-    if authored is not None:
+    normals, dropped = None, False
+    authored = _authored_normals(mesh, time, warn)
+    if authored is not None and authored[1] is not None:
         normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
         if normals is None:
             warn(f'{path}: {len(authored[0])} normals do not match interpolation '
-                 f'"{authored[1]}"; normals ignored')
+                 f'"{authored[1]}" ({len(points)} points, {len(counts)} faces, {len(indices)} face '
+                 'corners); normals computed from the faces instead')
+    dropped = authored is not None and normals is None
     uvs = None
     st = uv_primvar(prim)
     if st is not None:
-        uvs = _per_corner(st.ComputeFlattened(time), st.GetInterpolation(), face, corner, indices,
-                          len(points), len(counts))
-        if uvs is None:
-            warn(f'{path}: primvar {st.GetPrimvarName()} does not match interpolation '
-                 f'"{st.GetInterpolation()}"; texture coordinates ignored')
-    smooth = normals is None and mesh.GetSubdivisionSchemeAttr().Get(time) not in (
-        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear)
+        values = flattened(st, time, warn, 'texture coordinates ignored')
+        if values is not None:
+            uvs = _per_corner(values, st.GetInterpolation(), face, corner, indices, len(points), len(counts))
+            if uvs is None:
+                warn(f'{path}: primvars:{st.GetPrimvarName()}: {len(values)} values do not match '
+                     f'interpolation "{st.GetInterpolation()}"; texture coordinates ignored')
+    smooth = normals is None and (dropped or mesh.GetSubdivisionSchemeAttr().Get(time) not in (
+        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear))
     whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim))
 
     # split by materialBind subsets: one record per subset (+ the faces in none of them)

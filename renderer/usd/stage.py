@@ -192,8 +192,9 @@ class _Reader:
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue
-            except (Tf.ErrorException, TypeError, ValueError) as exc:     # malformed attribute values
-                self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} ({_first_line(exc)})')
+            except (Tf.ErrorException, TypeError, ValueError):     # malformed attribute values
+                self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} '
+                                    f'({mistyped_attributes(prim)})')
                 continue
             shapes += [_Shape(r, str(r.path), purpose != INHERIT) for r in records]
         # Container.gprims order: meshes first, then spheres
@@ -341,8 +342,8 @@ class _Reader:
                 for w in world:
                     try:
                         light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
-                    except (Tf.ErrorException, TypeError, ValueError) as exc:
-                        self.skipped.append(f'{prim.GetPath()}: unreadable light ({_first_line(exc)})')
+                    except (Tf.ErrorException, TypeError, ValueError):
+                        self.skipped.append(f'{prim.GetPath()}: unreadable light ({mistyped_attributes(prim)})')
                         break
                     if light is not None:
                         lights.append(light)
@@ -350,6 +351,20 @@ class _Reader:
 
     def _dome_texture(self, asset, owner: str) -> int:
         return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner)
+
+
+def mistyped_attributes(prim: Usd.Prim) -> str:
+    """In words, which authored attributes of a prim do not have the type its schema declares
+    (the usual reason a prim cannot be read), e.g. "radius is a string, the schema says double"."""
+    definition = prim.GetPrimDefinition()
+    found = []
+    for attr in prim.GetAuthoredAttributes():
+        declared = definition.GetAttributeDefinition(attr.GetName())
+        stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+        authored = stack[0].typeName if stack else None
+        if declared and authored is not None and authored != declared.GetTypeName():
+            found.append(f'{attr.GetName()} is a {authored}, the schema says {declared.GetTypeName()}')
+    return '; '.join(found) if found else 'an attribute value of a kind rtc cannot read'
 
 
 def _camera_world(prim: Usd.Prim, time: float) -> np.ndarray:

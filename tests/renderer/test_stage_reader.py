@@ -700,4 +700,63 @@ def test_malformed_attribute_values_skip_the_prim(tmp_path):
                     '    def Sphere "Ok" {\n    }\n}\n')
     desc = read_stage(path)
     assert [s.path for c in desc.containers for s in c.spheres] == ['/World/Ok']
-    assert sorted(s.split(':')[0] for s in desc.skipped) == ['/World/L', '/World/S']
+    assert sorted(desc.skipped) == ['/World/L: unreadable light (inputs:radius is a string, the schema says float)',
+                                    '/World/S: unreadable Sphere (radius is a string, the schema says double)']
+
+
+def _maya_cube(stage, path):
+    """A unit cube as six quads, written the way Arnold's Maya exports write their normals:
+    faceVarying, indexed, with an element size of 4 (one element per quad) that usd-core cannot
+    flatten against the 24 indices."""
+    points = [(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+    quads = [0, 1, 3, 2, 4, 6, 7, 5, 0, 4, 5, 1, 2, 3, 7, 6, 0, 2, 6, 4, 1, 5, 7, 3]
+    mesh = _tri_mesh(stage, path, points, [4] * 6, quads)
+    normals = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar('normals', Sdf.ValueTypeNames.Normal3fArray,
+                                                      UsdGeom.Tokens.faceVarying)
+    normals.Set([(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)])
+    normals.SetIndices(Vt.IntArray([f for f in range(6) for _ in range(4)]))
+    normals.SetElementSize(4)
+    return mesh
+
+
+def test_bad_primvars_cost_the_attribute_not_the_mesh(tmp_path):
+    """Meshes written by usd-core with primvars it cannot flatten or whose size does not match: each
+    mesh is kept with computed normals (area-weighted, unit length), one warning per attribute
+    names the prim and the attribute in words, and no message carries Python's error text."""
+    stage = _stage()
+    _maya_cube(stage, '/World/Maya')
+    wild = _tri_mesh(stage, '/World/Wild', [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2])
+    n = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('normals', Sdf.ValueTypeNames.Normal3fArray, 'faceVarying')
+    n.Set([(0, 0, 1)])
+    n.SetIndices(Vt.IntArray([0, 0, 9]))
+    st = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('st', Sdf.ValueTypeNames.TexCoord2fArray, 'faceVarying')
+    st.Set([(0, 0), (1, 0)])                              # 2 values for 3 corners
+    colour = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('displayColor', Sdf.ValueTypeNames.Color3fArray)
+    colour.Set([(1, 0, 0)])
+    colour.SetIndices(Vt.IntArray([4]))
+    path = tmp_path / 'maya.usdc'
+    stage.GetRootLayer().Export(str(path))
+
+    desc = read_stage(path)
+    assert desc.skipped == []
+    meshes = {m.path: m for c in desc.containers for m in c.meshes}
+    assert sorted(meshes) == ['/World/Maya', '/World/Wild']
+    cube = meshes['/World/Maya']
+    assert cube.triangles.shape == (12, 3)
+    corners = cube.points[cube.triangles]                  # outward: away from the cube's centre
+    assert np.all(np.einsum('tck,tck->tc', cube.normals, corners - 0.5) > 0)
+    np.testing.assert_allclose(np.linalg.norm(cube.normals, axis=-1), 1.0, atol=1e-6)
+    np.testing.assert_allclose(np.abs(meshes['/World/Wild'].normals.reshape(-1, 3)), [[0, 0, 1]] * 3, atol=1e-7)
+    assert meshes['/World/Wild'].uvs is None
+    ours = [w for w in desc.warnings if not w.startswith('USD: ')]
+    assert ours[:4] == [
+        '/World/Maya: primvars:normals cannot be used (its 24 indices of elements of 4 values do not fit its 6 '
+        'values); normals computed from the faces instead',
+        '/World/Wild: primvars:normals cannot be used (its indices reach 9 but it has 1 value); normals '
+        'computed from the faces instead',
+        '/World/Wild: primvars:st: 2 values do not match interpolation "faceVarying"; texture coordinates '
+        'ignored',
+        '/World/Wild: primvars:displayColor cannot be used (its indices reach 4 but it has 1 value); grey '
+        'used instead']
+    for message in desc.warnings + desc.skipped:
+        assert 'object' not in message and 'len()' not in message and 'Error' not in message
