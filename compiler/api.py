@@ -24,7 +24,7 @@ from typing import Optional
 from pxr import Usd
 
 from . import envmap
-from .bounds import check_transforms, world_bounds
+from .bounds import check_transforms, warn_camera_inside, world_bounds
 from .diagnostics import CompileError, Diagnostic, Diagnostics
 from .obj import ObjError, ObjMesh, load_obj
 from .scene import MeshFile, Scene
@@ -130,6 +130,7 @@ def _front_end(path: Path, width, height, spp, focus_distance, lens_radius) -> _
     _omit_meshless(scene, meshes)
     check_transforms(scene, diags)
     diags.raise_if_errors()
+    warn_camera_inside(scene, diags)
     return _Compiled(scene, meshes, options, world_bounds(scene, meshes), diags)
 
 

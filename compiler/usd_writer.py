@@ -95,6 +95,7 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
     converted from the scene's cube map (None: no environment, the background colour applies).
     `placements_as_text` (for a .usda output): static placements are formatted as text
     (`WrittenScene.placements_text`) instead of authored as specs; same file, ~10x faster."""
+    prototypes_per_shader(scene)
     layer = Sdf.Layer.CreateAnonymous("scene.usda")
     out = WrittenScene(layer)
     names = _Names()
@@ -121,6 +122,28 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
         else:
             bulk.placements(scene.placements)
     return out
+
+
+def prototypes_per_shader(scene: Scene) -> None:
+    """One prototype per (prototype, shader) pair: a placement that overrides its prototype's
+    shader is moved to a copy of the prototype bound to that shader (named `<prototype>_<shader>`),
+    still instanced, so that tools which resolve bindings per prototype (Blender's importer with
+    scene instancing) show the placement's shader, as rtc does.  The copies share the geometry
+    (meshes are one referenced spec)."""
+    copies: dict[tuple[int, int], Prototype] = {}
+    for p in scene.placements:
+        shader = p.shader
+        if shader is None:
+            continue
+        proto = p.prototype
+        if shader is not proto.shader:
+            key = (id(proto), id(shader))
+            copy = copies.get(key)
+            if copy is None:
+                copy = copies[key] = Prototype(f"{proto.name}_{shader.name}", proto.geometry, shader, proto.line,
+                                               proto.transform)
+            p.prototype = copy
+        p.shader = None
 
 
 # ----------------------------------------------------------------------------- names
@@ -368,6 +391,8 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: RenderOptions, cam
     if options.spp is not None:
         prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=True).Set(options.spp)
     prim.CreateAttribute("rtc:backgroundColor", _T.Color3f, custom=True).Set(Gf.Vec3f(*scene.background))
+    # the course's renderers write linear values straight into their 8-bit PNGs (spec section 12)
+    prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=True).Set("linear")
 
 
 # ----------------------------------------------------------------------------- bulk (Sdf level)
@@ -397,12 +422,10 @@ class _Bulk:
             attr.default = value
         return attr
 
-    def _bind(self, spec: Sdf.PrimSpec, shader: Shader, stronger: bool = False) -> None:
+    def _bind(self, spec: Sdf.PrimSpec, shader: Shader) -> None:
         spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"]))
         rel = Sdf.RelationshipSpec(spec, "material:binding", False)
         rel.targetPathList.explicitItems = [Sdf.Path(self.materials[id(shader)])]
-        if stronger:
-            rel.SetInfo("bindMaterialAs", UsdShade.Tokens.strongerThanDescendants)
 
     def _ops(self, spec: Sdf.PrimSpec, motion: Motion, local: list[tuple[str, object]] = ()) -> None:
         """The course transform as xformOps in document order, then the geometry's own ops.
@@ -529,8 +552,6 @@ class _Bulk:
             spec.referenceList.Prepend(references[id(p.prototype)])
             spec.instanceable = True
             self._ops(spec, p.motion)
-            if p.shader is not None:
-                self._bind(spec, p.shader, stronger=True)
 
     def placements_as_text(self, placements: list[Placement]) -> Optional[str]:
         """What `placements` authors, as .usda text for the children of an empty
@@ -544,7 +565,6 @@ class _Bulk:
             placements,
             name_of=lambda p: unique(parent_path, p.name),
             prototype_path=lambda p: protos[id(p.prototype)],
-            material_path=lambda p: self.materials[id(p.shader)],
             op_plan=_op_plan)
 
 

@@ -177,6 +177,7 @@ class RenderSettings:
     max_depth: Optional[int] = None
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
+    encoding: Optional[str] = None          # 8/16-bit image encoding the stage asks for (rtc:imageEncoding)
 
 
 @dataclass

@@ -33,8 +33,10 @@ def _fail(message: str, code: int = EXIT_ERROR):
     sys.exit(code)
 
 
-def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, time=None, quiet=False):
-    """A SceneDescription from a USD file, or from a course XML file compiled in memory."""
+def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, time=None, quiet=False,
+               strict=False):
+    """A SceneDescription from a USD file, or from a course XML file compiled in memory.  `strict`:
+    any warning of the compiler or the reader exits 1 (after printing them)."""
     from .renderer.errors import SceneError
     from .renderer.usd.stage import read_stage
     p = Path(path)
@@ -50,17 +52,21 @@ def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, tim
             for d in e.diagnostics:
                 click.echo(str(d), err=True)
             sys.exit(EXIT_ERROR)
-        if not quiet:
+        if not quiet or strict:
             for d in diags:
                 click.echo(str(d), err=True)
+        if strict and diags:
+            sys.exit(EXIT_WARNINGS)
         source = stage
     try:
         desc = read_stage(source, time=time, camera_path=camera, width=width, height=height, spp=spp)
     except SceneError as e:
         _fail(str(e))
-    if not quiet:
-        for w in desc.warnings:
+    if not quiet or strict:
+        for w in desc.warnings + [f'skipped {s}' for s in desc.skipped]:
             click.echo(f'{path}: warning: {w}', err=True)
+    if strict and (desc.warnings or desc.skipped):
+        sys.exit(EXIT_WARNINGS)
     return desc
 
 
@@ -101,9 +107,13 @@ class _StopFlag:
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
 @click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
+@click.option('--encoding', type=click.Choice(['srgb', 'linear']),
+              help='8/16-bit outputs: sRGB, or linear values as the course\'s renderers write them '
+                   '(default: what the stage asks for - linear for course scenes - else sRGB).')
+@click.option('--strict', is_flag=True, help='Treat warnings about the scene as failures (exit 1, write nothing).')
 @click.option('-q', '--quiet', is_flag=True)
 def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
-               checkpoint, resume, quiet):
+               checkpoint, resume, encoding, strict, quiet):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
     from .renderer.host import film as film_mod
     from .renderer.host.progress import Progress, summary_line
@@ -124,7 +134,7 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
         _fail(str(e))
     if checkpoint is not None and not 0 < checkpoint < float('inf'):
         _fail(f'--checkpoint must be a positive number of seconds, got {checkpoint}')
-    desc = load_scene(scene, camera=camera, width=width, height=height, spp=spp, quiet=quiet)
+    desc = load_scene(scene, camera=camera, width=width, height=height, spp=spp, quiet=quiet, strict=strict)
     try:
         resolved = opts.resolved(desc.settings)
     except RenderError as e:
@@ -170,7 +180,7 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
     meta = res.metadata()
     meta['rtc:scene'] = str(scene)
     try:
-        film_mod.write_image(output, res.image, meta)
+        film_mod.write_image(output, res.image, meta, encoding=encoding or desc.settings.encoding or 'srgb')
     except film_mod.FilmError as e:
         _fail(str(e))
     if res.interrupted or checkpoint:

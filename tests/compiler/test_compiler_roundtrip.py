@@ -40,7 +40,9 @@ def test_objects_and_instances(compiled):
     instances = stage.GetPrimAtPath("/World/Instances").GetChildren() if scene.placements else []
     assert len(instances) == len(scene.placements)
     assert all(p.IsInstance() for p in instances)
-    assert len(stage.GetPrototypes()) == len(scene.used_prototypes())
+    # one USD prototype per (prototype, shader) pair: an overriding shader gets its own copy
+    pairs = {(id(p.prototype), id(p.effective_shader)) for p in scene.placements}
+    assert len(stage.GetPrototypes()) == len(pairs)
     for shape, prim in zip(scene.shapes, geometry):
         kind = type(shape.geometry).__name__
         assert prim.GetTypeName() == {"Sphere": "Sphere", "Box": "Cube", "Triangle": "Mesh",
