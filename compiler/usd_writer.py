@@ -20,6 +20,7 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from . import placements_text as _text
+from . import tessellation
 from .obj import ObjMesh
 from .scene import (Box, Camera, Cylinder, Geometry, Light, MeshFile, Motion, Placement, Prototype,
                     Scene, Shader, Shape, Sphere, Triangle)
@@ -109,6 +110,8 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
         dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
         faces = dome.GetPrim().CreateAttribute("rtc:cubeMapFaces", _T.AssetArray, custom=True)
         faces.Set([Sdf.AssetPath(assets.asset_path(p)) for p in scene.environment.faces.values()])
+    else:
+        _background(stage, scene)
     materials = _materials(stage, scene.used_shaders(), assets, names)
     _render_settings(stage, scene, options, camera_path)
     del stage                                   # bulk authoring below goes straight to the layer
@@ -287,6 +290,16 @@ def _lights(stage: Usd.Stage, scene: Scene, bounds, names: _Names) -> None:
         prim.CreateAttribute("rtc:referenceDistance", _T.Double, custom=True).Set(d_ref)
 
 
+def _background(stage: Usd.Stage, scene: Scene) -> None:
+    """The course background colour as a constant DomeLight, which other tools read as the world
+    colour (Blender: the world's Background node).  `rtc:background` tells rtc that it is the
+    colour of escaping rays, not a light (the course does not light the scene with it)."""
+    dome = UsdLux.DomeLight.Define(stage, "/World/Lights/Background")
+    dome.CreateColorAttr(Gf.Vec3f(*scene.background))
+    dome.CreateIntensityAttr(1.0)
+    dome.GetPrim().CreateAttribute("rtc:background", _T.Bool, custom=True).Set(True)
+
+
 def area_light_frame(light: Light) -> np.ndarray:
     """Light-to-world (column vectors) for a RectLight: local -Z = normal, centred at the position;
     `width` runs along local X, `length` along local Y, det = +1."""
@@ -390,7 +403,6 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: RenderOptions, cam
     prim = settings.GetPrim()
     if options.spp is not None:
         prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=True).Set(options.spp)
-    prim.CreateAttribute("rtc:backgroundColor", _T.Color3f, custom=True).Set(Gf.Vec3f(*scene.background))
     # the course's renderers write linear values straight into their 8-bit PNGs (spec section 12)
     prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=True).Set("linear")
 
@@ -402,6 +414,8 @@ class _Bulk:
     def __init__(self, layer: Sdf.Layer, materials: dict[int, str], names: _Names):
         self.layer, self.materials, self.names = layer, materials, names
         self.library: Optional[Sdf.PrimSpec] = None
+        self.shapes_library: Optional[Sdf.PrimSpec] = None
+        self.implicit_refs: dict[tuple, Sdf.Reference] = {}
         self.proto_paths: dict[int, Sdf.Path] = {}
 
     # -- helpers
@@ -485,29 +499,23 @@ class _Bulk:
     def _geometry(self, parent: Sdf.PrimSpec, name: str, geometry: Geometry, shader: Shader,
                   motion: Motion, mesh_refs: dict) -> Sdf.PrimSpec:
         flat_box = isinstance(geometry, Box) and min(np.subtract(geometry.max, geometry.min)) == 0.0
-        type_name = {Sphere: "Sphere", Box: "Mesh" if flat_box else "Cube", Triangle: "Mesh",
-                     Cylinder: "Cylinder", MeshFile: "Mesh"}[type(geometry)]
-        spec = self._child(parent, name, type_name)
+        spec = self._child(parent, name, "Mesh")
         local: list[tuple[str, object]] = []
         if isinstance(geometry, Sphere):
-            self._attr(spec, "radius", _T.Double, geometry.radius)
             r = geometry.radius
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-r, -r, -r), (r, r, r)]))
+            self._implicit(spec, "Sphere", lambda: tessellation.sphere(r), {"radius": r}, (-r, -r, -r), (r, r, r))
             local.append(("xformOp:translate:center", Gf.Vec3d(*geometry.center)))
         elif flat_box:
             _author_box_mesh(self, spec, geometry)
         elif isinstance(geometry, Box):
-            self._attr(spec, "size", _T.Double, 1.0)
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-.5, -.5, -.5), (.5, .5, .5)]))
+            self._implicit(spec, "Cube", tessellation.cube, {"size": 1.0}, (-.5, -.5, -.5), (.5, .5, .5))
             lo, hi = np.array(geometry.min), np.array(geometry.max)
             local.append(("xformOp:translate:center", Gf.Vec3d(*((lo + hi) / 2))))
             local.append(("xformOp:scale:size", Gf.Vec3d(*(hi - lo))))
         elif isinstance(geometry, Cylinder):
-            self._attr(spec, "radius", _T.Double, geometry.radius)
-            self._attr(spec, "height", _T.Double, geometry.height)
-            self._attr(spec, "axis", _T.Token, "Y", uniform=True)
             r, h = geometry.radius, geometry.height / 2
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-r, -h, -r), (r, h, r)]))
+            self._implicit(spec, "Cylinder", lambda: tessellation.cylinder(r, geometry.height),
+                           {"radius": r, "height": geometry.height}, (-r, -h, -r), (r, h, r))
             local.append(("xformOp:translate:center", Gf.Vec3d(*geometry.center)))
         elif isinstance(geometry, Triangle):
             _author_triangle(self, spec, geometry)
@@ -516,6 +524,40 @@ class _Bulk:
         self._ops(spec, motion, local)
         self._bind(spec, shader)
         return spec
+
+    def _implicit(self, spec: Sdf.PrimSpec, kind: str, polygons, sizes: dict, lo, hi) -> None:
+        """A course sphere, box or cylinder: a reference to its mesh in /Prototypes/Shapes, one per
+        distinct shape and size (a scene of 825 primitives has a handful)."""
+        key = (kind, *sizes.values())
+        ref = self.implicit_refs.get(key)
+        if ref is None:
+            if self.shapes_library is None:
+                self.shapes_library = self._root("/Prototypes/Shapes", "", Sdf.SpecifierOver)
+                self.names.taken.setdefault("/Prototypes", set()).add("Shapes")
+            mesh = self._child(self.shapes_library, kind, "Mesh")
+            self._implicit_mesh(mesh, kind, polygons(), sizes, lo, hi)
+            ref = self.implicit_refs[key] = Sdf.Reference("", mesh.path)
+        spec.referenceList.Prepend(ref)
+
+    def _implicit_mesh(self, spec: Sdf.PrimSpec, kind: str, polygons, sizes: dict, lo, hi) -> None:
+        """The polygons of `tessellation` for other tools (they keep the material binding, see
+        tessellation.py) plus the exact UsdGeom shape for rtc: `rtc:implicit` = its type name and
+        `rtc:<size>` = its size attributes (axis Y)."""
+        points, counts, indices, normals = polygons
+        self._attr(spec, "points", _T.Point3fArray, Vt.Vec3fArray.FromNumpy(points.astype(np.float32)))
+        self._attr(spec, "faceVertexCounts", _T.IntArray, Vt.IntArray.FromNumpy(counts.astype(np.int32)))
+        self._attr(spec, "faceVertexIndices", _T.IntArray, Vt.IntArray.FromNumpy(indices.astype(np.int32)))
+        self._attr(spec, "subdivisionScheme", _T.Token, "none", uniform=True)
+        if kind != "Cube":                        # smooth around; the cube's faces stay flat
+            normal = self._attr(spec, "primvars:normals", _T.Normal3fArray,
+                                Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
+            normal.SetInfo("interpolation", UsdGeom.Tokens.vertex)
+        self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([lo, hi]))
+        self._attr(spec, "rtc:implicit", _T.Token, kind, uniform=True).SetInfo("custom", True)
+        for name, value in sizes.items():
+            self._attr(spec, f"rtc:{name}", _T.Double, value).SetInfo("custom", True)
+        if kind == "Cylinder":
+            self._attr(spec, "rtc:axis", _T.Token, "Y", uniform=True).SetInfo("custom", True)
 
     def shapes(self, shapes: list[Shape], mesh_refs: dict) -> None:
         if not shapes:

@@ -52,7 +52,20 @@ def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, 
         raise GeometryError(f'{prim.GetPath()}: non-finite transform')
     if abs(np.linalg.det(to_container[:3, :3])) < 1e-300:
         raise GeometryError(f'{prim.GetPath()}: singular transform')
-    return _CONVERTERS[prim.GetTypeName()](prim, to_container, time, warn)
+    return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn)
+
+
+def implicit_type(prim: Usd.Prim) -> str:
+    """The gprim type to read: a `Mesh` with `rtc:implicit` (rtc's compiler writes course spheres,
+    boxes and cylinders so, for tools that bind materials to meshes only) is read as that exact
+    UsdGeom shape, its sizes in `rtc:<attribute>`; anything else as its own type."""
+    kind = prim.GetTypeName()
+    if kind == 'Mesh':
+        attr = prim.GetAttribute('rtc:implicit')
+        value = attr.Get() if attr else None
+        if value in IMPLICIT_TYPES:
+            return value
+    return kind
 
 
 # --------------------------------------------------------------------------- meshes
@@ -278,12 +291,17 @@ def _axis_frame(axis: str) -> np.ndarray:
 
 
 def _shape(prim, name: str, time, default: float, positive=True) -> float:
-    attr = prim.GetAttribute(name)
+    attr = prim.GetAttribute(name if prim.GetTypeName() != 'Mesh' else f'rtc:{name}')
     value = attr.Get(time) if attr else None
     value = default if value is None else float(value)
     if not np.isfinite(value) or (positive and value <= 0) or value < 0:
         raise GeometryError(f'{prim.GetPath()}: {name} = {value} is not a valid size')
     return value
+
+
+def _axis(prim, time) -> str:
+    attr = prim.GetAttribute('axis' if prim.GetTypeName() != 'Mesh' else 'rtc:axis')
+    return (attr.Get(time) if attr else None) or 'Z'
 
 
 def _revolve(profile: list[tuple[float, float, float, float, float]]):
@@ -361,13 +379,13 @@ def _cylinder(prim, m, time, warn):
         rb = rt = _shape(prim, 'radius', time, 1.0)
     if rb == 0 and rt == 0:
         raise GeometryError(f'{prim.GetPath()}: both radii are 0')
-    return _quadric(prim, m, _frustum(rb, rt, h), prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, _frustum(rb, rt, h), _axis(prim, time),
                     _double_sided(prim))
 
 
 def _cone(prim, m, time, warn):
     h, r = _shape(prim, 'height', time, 2.0), _shape(prim, 'radius', time, 1.0)
-    return _quadric(prim, m, _frustum(r, 0.0, h), prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, _frustum(r, 0.0, h), _axis(prim, time),
                     _double_sided(prim))
 
 
@@ -386,7 +404,7 @@ def _capsule(prim, m, time, warn):
                 (rb * (a + np.pi / 2)) / total) for a in lat]
     profile += [(rt * np.cos(a), h / 2 + rt * np.sin(a), np.cos(a), np.sin(a),
                  (rb * np.pi / 2 + h + rt * a) / total) for a in -lat[::-1]]
-    return _quadric(prim, m, [_revolve(profile)], prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, [_revolve(profile)], _axis(prim, time),
                     _double_sided(prim))
 
 
@@ -409,7 +427,7 @@ def _cube(prim, m, time, warn):
 def _plane(prim, m, time, warn):
     """A two-triangle rectangle facing +axis; always double-sided (a plane has no inside)."""
     w, length = _shape(prim, 'width', time, 2.0), _shape(prim, 'length', time, 2.0)
-    axis = prim.GetAttribute('axis').Get(time) or 'Z'
+    axis = _axis(prim, time)
     # (u, v, normal) axes with u x v = normal, and the extent along each in-plane axis
     frames = {'Z': ((0, 1, 2), (w, length)), 'X': ((1, 2, 0), (length, w)), 'Y': ((2, 0, 1), (length, w))}
     (iu, iv, inorm), (su, sv) = frames[axis] if axis in frames else frames['Z']
@@ -427,6 +445,7 @@ def _sphere(prim, m, time, warn):
     return [Sphere(path=str(prim.GetPath()), radius=r, matrix=np.array(m, np.float64))]
 
 
+IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
 _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,

@@ -109,6 +109,7 @@ class _Reader:
         self.warnings: list[str] = []
         self.skipped: list[str] = []
         self.materials = MaterialTable(self.tc, self.warn)
+        self.backgrounds: set[str] = set()     # DomeLights marked rtc:background (course background colour)
 
     def warn(self, message: str) -> None:
         self.warnings.append(message)
@@ -148,6 +149,10 @@ class _Reader:
         containers, instances = self._instances(graph, placed)
         frame = int(np.argmin(np.abs(np.asarray(times) - t)))
         lights = self._lights(graph, placed, frame, up)
+        backgrounds = [light for light in lights if light.path in self.backgrounds]
+        if backgrounds:                  # a course background: the colour of escaping rays, not a light
+            background = backgrounds[0].radiance
+            lights = [light for light in lights if light.path not in self.backgrounds]
 
         desc = SceneDescription(source=self.label, containers=containers, instances=instances,
                                 materials=self.materials.materials, textures=self.materials.textures,
@@ -347,10 +352,20 @@ class _Reader:
                         break
                     if light is not None:
                         lights.append(light)
+                        if _is_course_background(prim, self.tc):
+                            self.backgrounds.add(light.path)
         return lights
 
     def _dome_texture(self, asset, owner: str) -> int:
         return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner)
+
+
+def _is_course_background(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
+    """A constant DomeLight the compiler wrote for a course background colour (`rtc:background`):
+    other tools show it as the world colour; rtc gives it to escaping rays only, as the course
+    does, instead of lighting the scene with it a second time."""
+    attr = prim.GetAttribute('rtc:background')
+    return bool(attr and attr.Get(time)) and prim.GetTypeName() in ('DomeLight', 'DomeLight_1')
 
 
 def mistyped_attributes(prim: Usd.Prim) -> str:

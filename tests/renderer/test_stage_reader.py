@@ -760,3 +760,54 @@ def test_bad_primvars_cost_the_attribute_not_the_mesh(tmp_path):
         'used instead']
     for message in desc.warnings + desc.skipped:
         assert 'object' not in message and 'len()' not in message and 'Error' not in message
+
+
+def test_mesh_with_rtc_implicit_reads_as_the_exact_shape():
+    """A Mesh carrying rtc:implicit (how the compiler writes course spheres, boxes and cylinders,
+    with a tessellation for other tools) gives the same records as the UsdGeom shape itself."""
+    stage = _stage()
+    made = {}
+    for kind, sizes in (('Sphere', {'radius': 0.7}), ('Cube', {'size': 1.0}),
+                        ('Cylinder', {'radius': 0.3, 'height': 2.5})):
+        shape = stage.DefinePrim(f'/World/{kind}', kind)
+        mesh = _tri_mesh(stage, f'/World/{kind}Mesh', [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2])
+        mesh.GetPrim().CreateAttribute('rtc:implicit', Sdf.ValueTypeNames.Token, custom=True).Set(kind)
+        for name, value in sizes.items():
+            shape.GetAttribute(name).Set(value)
+            mesh.GetPrim().CreateAttribute(f'rtc:{name}', Sdf.ValueTypeNames.Double, custom=True).Set(value)
+        if kind == 'Cylinder':
+            shape.GetAttribute('axis').Set('Y')
+            mesh.GetPrim().CreateAttribute('rtc:axis', Sdf.ValueTypeNames.Token, custom=True).Set('Y')
+        for prim in (shape, mesh.GetPrim()):
+            UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
+        made[kind] = (shape, mesh.GetPrim())
+    desc = read_stage(stage)
+    records = {r.path: r for c in desc.containers for r in (*c.meshes, *c.spheres)}
+    for kind, (shape, mesh) in made.items():
+        a, b = records[str(shape.GetPath())], records[str(mesh.GetPath())]
+        assert type(a) is type(b)
+        if kind == 'Sphere':
+            assert a.radius == b.radius == 0.7 and np.array_equal(a.matrix, b.matrix)
+        else:
+            assert np.array_equal(a.points, b.points) and np.array_equal(a.triangles, b.triangles)
+            assert np.array_equal(a.normals, b.normals)
+    assert np.ptp(records['/World/CylinderMesh'].points[:, 1]) == pytest.approx(2.5)   # along Y
+
+
+def test_course_background_dome_is_the_background_not_a_light():
+    """A constant DomeLight marked rtc:background is the colour of escaping rays (radiance
+    colour x intensity), not a light; an unmarked DomeLight stays a light."""
+    stage = _stage()
+    UsdGeom.Sphere.Define(stage, '/World/S')
+    UsdLux.SphereLight.Define(stage, '/World/L').CreateIntensityAttr(5.0)
+    dome = UsdLux.DomeLight.Define(stage, '/World/Background')
+    dome.CreateColorAttr((0.25, 0.5, 0.75))
+    dome.CreateIntensityAttr(2.0)
+    dome.GetPrim().CreateAttribute('rtc:background', Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    desc = read_stage(stage)
+    assert desc.background == (0.5, 1.0, 1.5)
+    assert [l.path for l in desc.lights] == ['/World/L']
+    dome.GetPrim().GetAttribute('rtc:background').Set(False)
+    desc = read_stage(stage)
+    assert desc.background == (0.0, 0.0, 0.0)
+    assert sorted(l.path for l in desc.lights) == ['/World/Background', '/World/L']
