@@ -26,6 +26,10 @@ from .scene import (Box, Camera, Cylinder, Geometry, Light, MeshFile, Motion, Pl
                     Scene, Shader, Shape, Sphere, Triangle)
 
 _T = Sdf.ValueTypeNames
+#: rtc's applied API schemas (schemas/generatedSchema.usda, registered by `import rtc`): every rtc:
+#: attribute belongs to one of them
+LIGHT_API, MATERIAL_API, CAMERA_API = "RtcCourseLightAPI", "RtcCourseMaterialAPI", "RtcCourseCameraAPI"
+SETTINGS_API, IMPLICIT_API, DOME_API = "RtcRenderSettingsAPI", "RtcImplicitShapeAPI", "RtcDomeAPI"
 _OP_TYPES = {"translate": _T.Double3, "scale": _T.Double3, "rotateX": _T.Double, "rotateY": _T.Double,
              "rotateZ": _T.Double}
 
@@ -108,7 +112,8 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOption
         dome = UsdLux.DomeLight.Define(stage, "/World/Lights/Environment")
         dome.CreateTextureFileAttr(Sdf.AssetPath(environment_asset))
         dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
-        faces = dome.GetPrim().CreateAttribute("rtc:cubeMapFaces", _T.AssetArray, custom=True)
+        dome.GetPrim().ApplyAPI(DOME_API)
+        faces = dome.GetPrim().CreateAttribute("rtc:cubeMapFaces", _T.AssetArray, custom=False)
         faces.Set([Sdf.AssetPath(assets.asset_path(p)) for p in scene.environment.faces.values()])
     else:
         _background(stage, scene)
@@ -221,14 +226,15 @@ def _camera(stage: Usd.Stage, scene: Scene, options: RenderOptions, bounds) -> S
     near, far = _clipping(c, bounds)
     cam.CreateClippingRangeAttr(Gf.Vec2f(near, far))
     prim = cam.GetPrim()
-    prim.CreateAttribute("rtc:focalLength", _T.Double, custom=True).Set(c.focal_length)
-    prim.CreateAttribute("rtc:imagePlaneWidth", _T.Double, custom=True).Set(c.image_plane_width)
+    prim.ApplyAPI(CAMERA_API)
+    prim.CreateAttribute("rtc:focalLength", _T.Double, custom=False).Set(c.focal_length)
+    prim.CreateAttribute("rtc:imagePlaneWidth", _T.Double, custom=False).Set(c.image_plane_width)
     lens = options.lens_radius if options.lens_radius is not None else c.lens_radius
     if lens > 0.0:
         focus = options.focus_distance or c.focus_distance or _default_focus(c, bounds)
         cam.CreateFStopAttr(c.focal_length / (2.0 * lens))      # (0.1 * focalLength) / (2 r)
         cam.CreateFocusDistanceAttr(focus)
-        prim.CreateAttribute("rtc:lensRadius", _T.Double, custom=True).Set(lens)
+        prim.CreateAttribute("rtc:lensRadius", _T.Double, custom=False).Set(lens)
     elif options.focus_distance is not None:
         cam.CreateFocusDistanceAttr(options.focus_distance)
     if c.shutter is not None or scene.is_animated:
@@ -281,13 +287,15 @@ def _lights(stage: Usd.Stage, scene: Scene, bounds, names: _Names) -> None:
             lux.CreateNormalizeAttr(False)
             lux.CreateIntensityAttr(d_ref ** 2 / (light.width * light.length))
             prim = lux.GetPrim()
-            prim.CreateAttribute("rtc:normal", _T.Vector3d, custom=True).Set(Gf.Vec3d(*light.normal))
-            prim.CreateAttribute("rtc:width", _T.Double, custom=True).Set(light.width)
-            prim.CreateAttribute("rtc:length", _T.Double, custom=True).Set(light.length)
+            prim.ApplyAPI(LIGHT_API)
+            prim.CreateAttribute("rtc:normal", _T.Vector3d, custom=False).Set(Gf.Vec3d(*light.normal))
+            prim.CreateAttribute("rtc:width", _T.Double, custom=False).Set(light.width)
+            prim.CreateAttribute("rtc:length", _T.Double, custom=False).Set(light.length)
         lux.CreateColorAttr(Gf.Vec3f(*light.intensity))
         prim = lux.GetPrim()
-        prim.CreateAttribute("rtc:intensity", _T.Color3d, custom=True).Set(Gf.Vec3d(*light.intensity))
-        prim.CreateAttribute("rtc:referenceDistance", _T.Double, custom=True).Set(d_ref)
+        prim.ApplyAPI(LIGHT_API)
+        prim.CreateAttribute("rtc:intensity", _T.Color3d, custom=False).Set(Gf.Vec3d(*light.intensity))
+        prim.CreateAttribute("rtc:referenceDistance", _T.Double, custom=False).Set(d_ref)
 
 
 def _background(stage: Usd.Stage, scene: Scene) -> None:
@@ -297,7 +305,8 @@ def _background(stage: Usd.Stage, scene: Scene) -> None:
     dome = UsdLux.DomeLight.Define(stage, "/World/Lights/Background")
     dome.CreateColorAttr(Gf.Vec3f(*scene.background))
     dome.CreateIntensityAttr(1.0)
-    dome.GetPrim().CreateAttribute("rtc:background", _T.Bool, custom=True).Set(True)
+    dome.GetPrim().ApplyAPI(DOME_API)
+    dome.GetPrim().CreateAttribute("rtc:background", _T.Bool, custom=False).Set(True)
 
 
 def area_light_frame(light: Light) -> np.ndarray:
@@ -380,18 +389,19 @@ def _texture_network(stage, material_path: str, surface, colour: str, tint, file
 
 
 def _rtc_parameters(prim: Usd.Prim, s: Shader, assets: AssetPlan) -> None:
-    prim.CreateAttribute("rtc:model", _T.Token, custom=True).Set(s.model)
+    prim.ApplyAPI(MATERIAL_API)
+    prim.CreateAttribute("rtc:model", _T.Token, custom=False).Set(s.model)
     for name, value in (("diffuse", s.diffuse), ("specular", s.specular),
                         ("attenuationCoef", s.attenuation)):
         if value is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Color3d, custom=True).Set(Gf.Vec3d(*value))
+            prim.CreateAttribute(f"rtc:{name}", _T.Color3d, custom=False).Set(Gf.Vec3d(*value))
     for name, value in (("phongExp", s.phong_exp), ("mirrorCoef", s.mirror_coef),
                         ("roughness", s.roughness), ("refractiveIndex", s.refractive_index)):
         if value is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Double, custom=True).Set(float(value))
+            prim.CreateAttribute(f"rtc:{name}", _T.Double, custom=False).Set(float(value))
     for name, texture in (("diffuseTexture", s.diffuse_texture), ("specularTexture", s.specular_texture)):
         if texture is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Asset, custom=True).Set(
+            prim.CreateAttribute(f"rtc:{name}", _T.Asset, custom=False).Set(
                 Sdf.AssetPath(assets.asset_path(texture.path)))
 
 
@@ -401,10 +411,11 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: RenderOptions, cam
     settings.CreateResolutionAttr(Gf.Vec2i(options.width, options.height))
     settings.CreateCameraRel().SetTargets([camera_path])
     prim = settings.GetPrim()
+    prim.ApplyAPI(SETTINGS_API)
     if options.spp is not None:
-        prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=True).Set(options.spp)
+        prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=False).Set(options.spp)
     # the course's renderers write linear values straight into their 8-bit PNGs (spec section 12)
-    prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=True).Set("linear")
+    prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=False).Set("linear")
 
 
 # ----------------------------------------------------------------------------- bulk (Sdf level)
@@ -553,11 +564,12 @@ class _Bulk:
                                 Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
             normal.SetInfo("interpolation", UsdGeom.Tokens.vertex)
         self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([lo, hi]))
-        self._attr(spec, "rtc:implicit", _T.Token, kind, uniform=True).SetInfo("custom", True)
+        spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=[IMPLICIT_API]))
+        self._attr(spec, "rtc:implicit", _T.Token, kind, uniform=True)
         for name, value in sizes.items():
-            self._attr(spec, f"rtc:{name}", _T.Double, value).SetInfo("custom", True)
+            self._attr(spec, f"rtc:{name}", _T.Double, value)
         if kind == "Cylinder":
-            self._attr(spec, "rtc:axis", _T.Token, "Y", uniform=True).SetInfo("custom", True)
+            self._attr(spec, "rtc:axis", _T.Token, "Y", uniform=True)
 
     def shapes(self, shapes: list[Shape], mesh_refs: dict) -> None:
         if not shapes:
