@@ -140,8 +140,8 @@ def test_lfs_pointers_fall_back_and_compile(tmp_path):
                         "not the mesh (fetch it with 'git lfs pull'); the shapes that use it are omitted")
     from pxr import Usd, UsdGeom
     stage = Usd.Stage.Open(str(out))
-    kinds = sorted({p.GetTypeName() for p in stage.Traverse() if p.IsA(UsdGeom.Gprim)})
-    assert kinds == ["Sphere"]
+    gprims = [p for p in stage.Traverse() if p.IsA(UsdGeom.Gprim)]
+    assert [(p.GetName(), p.GetAttribute("rtc:implicit").Get()) for p in gprims] == [("s", "Sphere")]
     assert not [p for p in stage.Traverse() if p.GetTypeName() == "UsdUVTexture" or
                 p.GetAttribute("info:id").Get() == "UsdUVTexture"]
 

@@ -2,6 +2,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pytest
 import OpenImageIO as oiio
 from pxr import Usd, UsdRender
 
@@ -80,3 +81,53 @@ def test_render_encodes_course_scenes_linear_and_other_usd_srgb(tmp_path):
     stage.Save()
     assert _render_codes(tmp_path, foreign) == [188] * 3
     assert _render_codes(tmp_path, foreign, "--encoding", "linear") == [128] * 3
+
+
+FLOOR = """<shape name="floor" type="box"><shader ref="grey"/><minPt>-50 -1 -50</minPt><maxPt>50 0 50</maxPt></shape>"""
+
+
+def _course_scene(tmp_path, name, light):
+    """A grey (kd 0.5) floor seen from (0 2 4) looking at the origin; only `light`."""
+    text = f"""<?xml version="1.0" encoding="UTF-8" ?>
+<scene>
+  <camera name="main" type="perspective">
+    <position>0 2 4</position><lookatPoint>0 0 0</lookatPoint>
+    <focalLength>0.4</focalLength><imagePlaneWidth>0.5</imagePlaneWidth>
+  </camera>
+  {light}
+  <shader name="grey" type="Lambertian"><diffuse>0.5 0.5 0.5</diffuse></shader>
+  {FLOOR}
+</scene>
+"""
+    path = tmp_path / f"{name}.xml"
+    path.write_text(text)
+    return path
+
+
+def _centre(tmp_path, scene) -> float:
+    """The centre pixel of a 41 x 41 cook render (linear EXR): the floor at the origin."""
+    import subprocess
+    import sys
+    out = tmp_path / f"{scene.stem}.exr"
+    done = subprocess.run([sys.executable, "-m", "rtc.cli", "render", str(scene), "-o", str(out), "--width", "41",
+                           "--height", "41", "--spp", "16", "--filter", "box", "-q"], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr
+    return float(oiio.ImageBuf(str(out)).get_pixels(oiio.FLOAT)[20, 20].mean())
+
+
+def test_course_lights_have_the_courses_semantics_in_cook(tmp_path):
+    """The course shades a Lambertian point with kd * I * max(0, n.l): no distance fall-off and, for
+    an area light, no cosine at the light and both sides lit.  A small light straight above the
+    floor's origin (n.l = 1 there, within 0.2 % over the centre pixel) gives kd * I = 0.5 * 0.8 = 0.4:
+    a point light one unit or three units up, an area light facing the floor, and an area light
+    facing away from it (black under the physical convention)."""
+    area = ('<light type="area"><position>0 1 0</position><intensity>0.8 0.8 0.8</intensity>'
+            '<normal>{n}</normal><width>0.01</width><length>0.01</length></light>')
+    lights = {
+        "point_near": '<light type="point"><position>0 1 0</position><intensity>0.8 0.8 0.8</intensity></light>',
+        "point_far": '<light type="point"><position>0 3 0</position><intensity>0.8 0.8 0.8</intensity></light>',
+        "area_facing": area.format(n="0 -1 0"),
+        "area_away": area.format(n="0 1 0"),
+    }
+    values = {name: _centre(tmp_path, _course_scene(tmp_path, name, light)) for name, light in lights.items()}
+    assert values == pytest.approx({name: 0.4 for name in lights}, rel=5e-3)
