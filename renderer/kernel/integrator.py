@@ -33,7 +33,7 @@ from .cameras import camera_rays
 from .dimensions import DIM_PIXEL, DIM_TIME, bsdf_dim, choice_dim, light_dim
 from .filters import filter_offset
 from .jit import INLINE_JIT, PARALLEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .lights import escaped_radiance, light_is_area, sample_light
+from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
@@ -282,7 +282,7 @@ def _direct_light(S, scene, smp, n_lights, p, ng, ns, wo, kd, ks, mat, model, os
                 u2 = queue[7][2 * k + 1, lane]
             else:
                 u1, u2 = sample_2d(sampler, seed, pixel, index, spp, light_dim(depth, k, n_lights))
-        wi, dist, E = sample_light(S, k, p, ns, u1, u2)
+        wi, dist, E = sample_course_light(S, k, p, ns, u1, u2)
         if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
             continue
         if dot(wi, ng) <= 0.0:
