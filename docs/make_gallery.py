@@ -8,6 +8,7 @@ so the gallery is also an end-to-end check that every example scene compiles and
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -17,7 +18,7 @@ import OpenImageIO as oiio
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / 'docs' / 'gallery'
-COURSE = ROOT.parent / 'shared' / 'corpus' / 'course'
+COURSE = Path(os.environ.get('RTC_SHARED', ROOT.parent / 'shared')) / 'corpus' / 'course'
 
 
 def render(scene: Path, out: Path, width: int, height: int, spp: int, *extra: str) -> float:
