@@ -19,11 +19,8 @@ from pathlib import Path
 
 import click
 
-from .renderer.kernel.filters import FILTER_NAMES
-from .renderer.kernel.samplers import SAMPLER_NAMES
-from .renderer.options import DEFAULTS, ENCODINGS
-
 from .exits import EXIT_INTERRUPTED, fail as _fail
+from .renderer_params import RendererCommand, renderer_option
 from .scene_input import checked_options, load_scene
 
 __all__ = ['main', 'load_scene', 'checked_options']
@@ -82,7 +79,7 @@ def _resumed_film(ckpt_path: Path, resolved):
     return film
 
 
-@main.command('render')
+@main.command('render', cls=RendererCommand)
 @click.argument('scene', type=click.Path(dir_okay=False))
 @click.option('-o', '--output', required=True, type=click.Path(dir_okay=False),
               help='Image to write: .exr (linear float), .png/.jpg/.tif (sRGB).')
@@ -91,27 +88,24 @@ def _resumed_film(ckpt_path: Path, resolved):
 @click.option('--height', type=int, help='Image height (default: the stage render settings; only --width '
                                           'given: keeps their aspect).')
 @click.option('--spp', type=int, help='Samples per pixel (default: the stage render settings, else 16).')
-@click.option('--sampler', type=click.Choice(list(SAMPLER_NAMES)), default=DEFAULTS['sampler'], show_default=True)
-@click.option('--filter', 'filter', type=click.Choice(list(FILTER_NAMES)), default=DEFAULTS['filter'],
-              show_default=True, help='Pixel reconstruction filter.')
-@click.option('--seed', type=int, default=DEFAULTS['seed'], show_default=True)
-@click.option('--max-depth', type=int, default=DEFAULTS['max_depth'], show_default=True,
-              help='Specular bounces (course default 4).')
+@renderer_option('--sampler', key='sampler')
+@renderer_option('--filter', 'filter', key='filter', help='Pixel reconstruction filter.')
+@renderer_option('--seed', key='seed', type=int)
+@renderer_option('--max-depth', key='max_depth', type=int, help='Specular bounces (course default 4).')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
 @click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
-@click.option('--encoding', type=click.Choice(list(ENCODINGS)),
+@click.option('--encoding', type=click.Choice(['srgb', 'linear']),   # renderer/options.py ENCODINGS
               help="8/16-bit outputs: sRGB, or linear values as the course's renderers write them (default: "
                    "what the stage asks for, linear for course scenes, else sRGB).")
 @click.option('--strict', is_flag=True, help='Treat warnings about the scene as failures (exit 1, nothing written).')
 @click.option('-q', '--quiet', is_flag=True)
 def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked):
-    """Render SCENE (USD, or course XML compiled in memory) to OUTPUT.
-
-    Every option not named in the signature is a RenderOptions field (`asked`): a new render option
-    is a click option here and a field in rtc/renderer/options.py, nothing else."""
+    """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
+    # every option not named in the signature is a RenderOptions field (`asked`): a new render option
+    # is a click option above and a field in renderer/options.py (docs/architecture.md)
     from .renderer.errors import RenderError
     from .renderer.host.film import FilmError, write_image
     from .renderer.host.progress import Progress, summary_line

@@ -13,20 +13,16 @@ from pathlib import Path
 
 import click
 
-from .renderer.kernel.filters import FILTER_NAMES
-from .renderer.kernel.samplers import SAMPLER_NAMES
-from .renderer.options import DEFAULTS
-
 from .exits import fail as _fail
+from .renderer_params import RendererCommand, renderer_option
 from .scene_input import checked_options, load_scene
 
 
-@click.command('converge')
+@click.command('converge', cls=RendererCommand)
 @click.argument('scene', type=click.Path(dir_okay=False))
 @click.option('-o', '--output', 'prefix', type=click.Path(dir_okay=False),
               help='Output prefix: PREFIX.csv and PREFIX.png (default: the scene path without suffix + .converge).')
-@click.option('--samplers', default=','.join(SAMPLER_NAMES), show_default=True,
-              help='Comma-separated samplers to compare.')
+@renderer_option('--samplers', key='samplers', help='Comma-separated samplers to compare.')
 @click.option('--max-spp', type=int, default=64, show_default=True, help='Largest sample count (1, 2, 4, ... up to it).')
 @click.option('--min-spp', type=int, default=1, show_default=True, help='Smallest sample count.')
 @click.option('--seeds', type=int, default=1, show_default=True, help='Renders per point (different seeds).')
@@ -34,15 +30,13 @@ from .scene_input import checked_options, load_scene
 @click.option('--reference-spp', type=int, help='Reference samples per pixel (default 16 x max-spp).')
 @click.option('--reference-seeds', type=int, default=4, show_default=True,
               help='The reference is the mean of this many renders with distinct seeds.')
-@click.option('--reference-sampler', type=click.Choice(list(SAMPLER_NAMES)), default=DEFAULTS['sampler'],
-              show_default=True)
+@renderer_option('--reference-sampler', key='sampler')
 @click.option('--no-cache', is_flag=True, help='Do not read or write the cached reference beside the scene.')
 @click.option('--width', type=int, help='Image width (default: the scene render settings).')
 @click.option('--height', type=int, help='Image height (default: the scene render settings; only --width '
                                           'given: keeps their aspect).')
-@click.option('--filter', 'filter_', type=click.Choice(list(FILTER_NAMES)), default=DEFAULTS['filter'],
-              show_default=True)
-@click.option('--max-depth', type=int, default=DEFAULTS['max_depth'], show_default=True)
+@renderer_option('--filter', 'filter_', key='filter')
+@renderer_option('--max-depth', key='max_depth', type=int)
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--metric', type=click.Choice(['rmse', 'relmse']), default='rmse', show_default=True,
               help='Error plotted and fitted (both are always in the CSV).')
@@ -54,6 +48,7 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
     """Error (RMSE and relMSE against a reference) of SCENE rendered at 1, 2, 4, ... --max-spp samples
     per pixel with each sampler, against spp and against wall-clock seconds."""
     from .renderer.host import converge as C
+    from .renderer.kernel.samplers import SAMPLER_NAMES
     from .renderer.host.film import FilmError, read_image
 
     names = [s.strip() for s in samplers.split(',') if s.strip()]

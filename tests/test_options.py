@@ -2,6 +2,8 @@
 defaults, one set of limits, the same for a course XML scene and the same scene compiled to USD."""
 from __future__ import annotations
 
+import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -87,13 +89,29 @@ def test_values_from_the_stage_are_checked_and_named():
     assert (o.width, o.height, o.spp) == (8, 8, 1)
 
 
-def test_cli_choices_are_the_registries():
+def test_cli_choices_and_defaults_are_the_renderers():
+    for command in ('render', 'converge'):
+        result = CliRunner().invoke(main, [command, '--help'])          # fills them in
+        assert result.exit_code == 0, result.output
     params = {p.name: p for p in main.commands['render'].params}
     assert list(params['sampler'].type.choices) == list(SAMPLER_NAMES)
     assert list(params['filter'].type.choices) == list(FILTER_NAMES)
+    assert [params[k].default for k in ('sampler', 'filter', 'seed', 'max_depth')] == \
+           [O.DEFAULTS[k] for k in ('sampler', 'filter', 'seed', 'max_depth')]
     conv = {p.name: p for p in main.commands['converge'].params}
     assert conv['samplers'].default == ','.join(SAMPLER_NAMES)
     assert list(conv['filter_'].type.choices) == list(FILTER_NAMES)
+    assert list(conv['reference_sampler'].type.choices) == list(SAMPLER_NAMES)
+
+
+def test_compiling_never_imports_the_renderer():
+    """`rtc compile` and `rtc --help` do not pay for numba (the renderer's registries are read only by
+    the commands that render)."""
+    code = ('import sys; from rtc.cli import main\n'
+            'try:\n    main(["--help"])\nexcept SystemExit:\n    pass\n'
+            'print(sorted(m for m in sys.modules if m.split(".")[0] == "numba" or m.startswith("rtc.renderer.")))')
+    out = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True, timeout=120)
+    assert out.returncode == 0 and out.stdout.strip().endswith('[]'), out.stdout + out.stderr
 
 
 # ----------------------------------------------------------------------------- XML and USD alike
