@@ -24,7 +24,7 @@ from typing import Optional
 from pxr import Usd
 
 from . import envmap
-from .bounds import check_transforms, world_bounds
+from .bounds import check_transforms, warn_camera_inside, world_bounds
 from .diagnostics import CompileError, Diagnostic, Diagnostics
 from .obj import ObjError, ObjMesh, load_obj
 from .scene import MeshFile, Scene
@@ -126,8 +126,10 @@ def _front_end(path: Path, width, height, spp, focus_distance, lens_radius) -> _
     diags = Diagnostics(str(path))
     scene = read_scene(path, diags)
     meshes = _load_meshes(scene, diags)
+    _omit_meshless(scene, meshes)
     check_transforms(scene, diags)
     diags.raise_if_errors()
+    warn_camera_inside(scene, diags)
     return _Compiled(scene, meshes, options, world_bounds(scene, meshes), diags)
 
 
@@ -152,8 +154,14 @@ def _load_meshes(scene: Scene, diags: Diagnostics) -> dict[Path, ObjMesh]:
     """Each OBJ file once, however many shapes and prototypes use it."""
     uses = [s.geometry for s in scene.shapes] + [p.geometry for p in scene.used_prototypes()]
     meshes: dict[Path, ObjMesh] = {}
+    skipped: set[Path] = set()
     for geometry in uses:
-        if not isinstance(geometry, MeshFile) or geometry.path in meshes:
+        if not isinstance(geometry, MeshFile) or geometry.path in meshes or geometry.path in skipped:
+            continue
+        if _is_lfs_pointer(geometry.path):
+            diags.warning(f"mesh file {geometry.path} is a Git LFS pointer, not the mesh (fetch it with "
+                          "'git lfs pull'); the shapes that use it are omitted", geometry.line, "file")
+            skipped.add(geometry.path)
             continue
         try:
             mesh = load_obj(geometry.path)
@@ -168,6 +176,28 @@ def _load_meshes(scene: Scene, diags: Diagnostics) -> dict[Path, ObjMesh]:
             diags.warning(f"{geometry.path.name}:{line}: {message}", geometry.line, "file")
         meshes[geometry.path] = mesh
     return meshes
+
+
+LFS_POINTER = b"version https://git-lfs.github.com/spec/"
+
+
+def _is_lfs_pointer(path: Path) -> bool:
+    """A Git LFS pointer checked out in place of the file (student repositories often have them)."""
+    try:
+        with open(path, "rb") as f:
+            return f.read(len(LFS_POINTER)) == LFS_POINTER
+    except OSError:
+        return False
+
+
+def _omit_meshless(scene: Scene, meshes: dict[Path, ObjMesh]) -> None:
+    """Shapes and placements whose mesh file could not be used (already warned about) are left out,
+    as the course parsers go on without them."""
+    def usable(geometry) -> bool:
+        return not isinstance(geometry, MeshFile) or geometry.path in meshes
+
+    scene.shapes = [s for s in scene.shapes if usable(s.geometry)]
+    scene.placements = [p for p in scene.placements if usable(p.prototype.geometry)]
 
 
 # ----------------------------------------------------------------------------- environment

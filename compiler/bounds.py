@@ -89,3 +89,49 @@ def _corners(geometry: Geometry, meshes: dict) -> np.ndarray:
     lo, hi = local_box(geometry, meshes)
     pick = np.array([[i >> 2 & 1, i >> 1 & 1, i & 1] for i in range(8)], dtype=bool)
     return np.hstack([np.where(pick, hi, lo), np.ones((8, 1))])
+
+
+MAX_INSIDE_WARNINGS = 3
+
+
+def warn_camera_inside(scene: Scene, diags: Diagnostics) -> None:
+    """Warn when the eye sits inside a closed analytic shape (sphere, box, cylinder; plain or
+    placed, first motion sample): every camera ray then meets its inner side first, which usually
+    hides the rest of the scene (a course `skysphere` is meant to be seen so)."""
+    eye = np.array([*scene.camera.position, 1.0])
+    groups: dict[int, tuple] = {}
+    for shape in scene.shapes:
+        groups.setdefault(id(shape), (shape.geometry, None, []))[2].append((shape.motion, shape.line))
+    for placement in scene.placements:
+        proto = placement.prototype
+        inner = proto.transform.matrix() if proto.transform is not None else None
+        groups.setdefault(id(proto), (proto.geometry, inner, []))[2].append((placement.motion, placement.line))
+    found = []
+    for geometry, inner, uses in groups.values():
+        if not isinstance(geometry, (Sphere, Box, Cylinder)):
+            continue
+        with np.errstate(over="ignore", invalid="ignore"):
+            world = compose_many([m.samples[0].ops if m.samples else () for m, _ in uses])
+            if inner is not None:
+                world = world @ inner
+            local = np.linalg.solve(world, np.broadcast_to(eye, (len(world), 4))[..., None])[..., 0, None]
+        inside = _inside(geometry, local[:, :3, 0])
+        found += [(line, type(geometry).__name__.lower()) for (_, line), hit in zip(uses, inside) if hit]
+    for line, kind in sorted(found)[:MAX_INSIDE_WARNINGS]:
+        diags.warning(f"the camera is inside the closed {kind} of line {line}: camera rays meet its inner "
+                      "side first, which hides what lies outside it", scene.camera.line, "camera")
+    if len(found) > MAX_INSIDE_WARNINGS:
+        diags.warning(f"the camera is inside {len(found) - MAX_INSIDE_WARNINGS} more closed shapes",
+                      scene.camera.line, "camera")
+
+
+def _inside(geometry: Geometry, p: np.ndarray) -> np.ndarray:
+    """Which object-space points lie strictly inside the shape."""
+    if isinstance(geometry, Sphere):
+        return np.linalg.norm(p - np.array(geometry.center), axis=1) < geometry.radius
+    if isinstance(geometry, Box):
+        lo, hi = np.array(geometry.min), np.array(geometry.max)
+        return np.all((p > lo) & (p < hi), axis=1)
+    c = np.array(geometry.center)
+    radial = np.hypot(p[:, 0] - c[0], p[:, 2] - c[2])
+    return (radial < geometry.radius) & (np.abs(p[:, 1] - c[1]) < geometry.height / 2)

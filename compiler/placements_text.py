@@ -71,13 +71,12 @@ def _value_text(kind: str, value) -> str:
 
 
 def placements_text(placements: list[Placement], name_of: Callable[[Placement], str],
-                    prototype_path: Callable[[Placement], str], material_path: Callable[[Placement], str],
-                    op_plan: Callable) -> str:
+                    prototype_path: Callable[[Placement], str], op_plan: Callable) -> str:
     """The children of /World/Instances, in order, as Sdf would export them.
 
     `name_of` gives each placement's unique prim name, `prototype_path` the path its reference
-    targets, `material_path` its overriding material (called only when it has one), and `op_plan`
-    the xformOp names and USD value types of a sequence of operation kinds (the writer's own
+    targets (a placement's shader is its prototype's: `usd_writer.prototypes_per_shader`), and
+    `op_plan` the xformOp names and USD value types of a sequence of operation kinds (the writer's own
     `_op_plan`, so both paths name ops identically)."""
     out = []
     layouts: dict[tuple[str, ...], tuple] = {}
@@ -91,15 +90,9 @@ def placements_text(placements: list[Placement], name_of: Callable[[Placement], 
             layout = layouts[kinds] = _layout(kinds, op_plan)
         names, types, order_line, sort_index = layout
         lines = [f"{_INDENT}def Xform \"{name}\" (\n"]
-        if p.shader is not None:
-            lines.append(f'{_INDENT}    prepend apiSchemas = ["MaterialBindingAPI"]\n')
         lines.append(f"{_INDENT}    instanceable = true\n"
                      f"{_INDENT}    prepend references = <{prototype_path(p)}>\n"
                      f"{_INDENT})\n{_INDENT}{{\n")
-        if p.shader is not None:
-            lines.append(f"{_INDENT}    rel material:binding = <{material_path(p)}> (\n"
-                         f'{_INDENT}        bindMaterialAs = "strongerThanDescendants"\n'
-                         f"{_INDENT}    )\n")
         for k in sort_index:
             lines.append(f"{_INDENT}    {types[k]} {names[k]} = {_value_text(kinds[k], ops[k].value)}\n")
         if order_line:

@@ -20,11 +20,16 @@ import numpy as np
 from pxr import Gf, Sdf, Tf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from . import placements_text as _text
+from . import tessellation
 from .obj import ObjMesh
 from .scene import (Box, Camera, Cylinder, Geometry, Light, MeshFile, Motion, Placement, Prototype,
                     Scene, Shader, Shape, Sphere, Triangle)
 
 _T = Sdf.ValueTypeNames
+#: rtc's applied API schemas (schemas/generatedSchema.usda, registered by `import rtc`): every rtc:
+#: attribute belongs to one of them
+LIGHT_API, MATERIAL_API, CAMERA_API = "RtcCourseLightAPI", "RtcCourseMaterialAPI", "RtcCourseCameraAPI"
+SETTINGS_API, IMPLICIT_API, DOME_API = "RtcRenderSettingsAPI", "RtcImplicitShapeAPI", "RtcDomeAPI"
 _OP_TYPES = {"translate": _T.Double3, "scale": _T.Double3, "rotateX": _T.Double, "rotateY": _T.Double,
              "rotateZ": _T.Double}
 
@@ -97,6 +102,7 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: CompileOptio
     converted from the scene's cube map (None: no environment, the background colour applies).
     `placements_as_text` (for a .usda output): static placements are formatted as text
     (`WrittenScene.placements_text`) instead of authored as specs; same file, ~10x faster."""
+    prototypes_per_shader(scene)
     layer = Sdf.Layer.CreateAnonymous("scene.usda")
     out = WrittenScene(layer)
     names = _Names()
@@ -108,8 +114,11 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: CompileOptio
         dome = UsdLux.DomeLight.Define(stage, "/World/Lights/Environment")
         dome.CreateTextureFileAttr(Sdf.AssetPath(environment_asset))
         dome.CreateTextureFormatAttr(UsdLux.Tokens.latlong)
-        faces = dome.GetPrim().CreateAttribute("rtc:cubeMapFaces", _T.AssetArray, custom=True)
+        dome.GetPrim().ApplyAPI(DOME_API)
+        faces = dome.GetPrim().CreateAttribute("rtc:cubeMapFaces", _T.AssetArray, custom=False)
         faces.Set([Sdf.AssetPath(assets.asset_path(p)) for p in scene.environment.faces.values()])
+    else:
+        _background(stage, scene)
     materials = _materials(stage, scene.used_shaders(), assets, names)
     _render_settings(stage, scene, options, camera_path)
     del stage                                   # bulk authoring below goes straight to the layer
@@ -123,6 +132,28 @@ def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: CompileOptio
         else:
             bulk.placements(scene.placements)
     return out
+
+
+def prototypes_per_shader(scene: Scene) -> None:
+    """One prototype per (prototype, shader) pair: a placement that overrides its prototype's
+    shader is moved to a copy of the prototype bound to that shader (named `<prototype>_<shader>`),
+    still instanced, so that tools which resolve bindings per prototype (Blender's importer with
+    scene instancing) show the placement's shader, as rtc does.  The copies share the geometry
+    (meshes are one referenced spec)."""
+    copies: dict[tuple[int, int], Prototype] = {}
+    for p in scene.placements:
+        shader = p.shader
+        if shader is None:
+            continue
+        proto = p.prototype
+        if shader is not proto.shader:
+            key = (id(proto), id(shader))
+            copy = copies.get(key)
+            if copy is None:
+                copy = copies[key] = Prototype(f"{proto.name}_{shader.name}", proto.geometry, shader, proto.line,
+                                               proto.transform)
+            p.prototype = copy
+        p.shader = None
 
 
 # ----------------------------------------------------------------------------- names
@@ -197,14 +228,15 @@ def _camera(stage: Usd.Stage, scene: Scene, options: CompileOptions, bounds) -> 
     near, far = _clipping(c, bounds)
     cam.CreateClippingRangeAttr(Gf.Vec2f(near, far))
     prim = cam.GetPrim()
-    prim.CreateAttribute("rtc:focalLength", _T.Double, custom=True).Set(c.focal_length)
-    prim.CreateAttribute("rtc:imagePlaneWidth", _T.Double, custom=True).Set(c.image_plane_width)
+    prim.ApplyAPI(CAMERA_API)
+    prim.CreateAttribute("rtc:focalLength", _T.Double, custom=False).Set(c.focal_length)
+    prim.CreateAttribute("rtc:imagePlaneWidth", _T.Double, custom=False).Set(c.image_plane_width)
     lens = options.lens_radius if options.lens_radius is not None else c.lens_radius
     if lens > 0.0:
         focus = options.focus_distance or c.focus_distance or _default_focus(c, bounds)
         cam.CreateFStopAttr(c.focal_length / (2.0 * lens))      # (0.1 * focalLength) / (2 r)
         cam.CreateFocusDistanceAttr(focus)
-        prim.CreateAttribute("rtc:lensRadius", _T.Double, custom=True).Set(lens)
+        prim.CreateAttribute("rtc:lensRadius", _T.Double, custom=False).Set(lens)
     elif options.focus_distance is not None:
         cam.CreateFocusDistanceAttr(options.focus_distance)
     if c.shutter is not None or scene.is_animated:
@@ -257,13 +289,26 @@ def _lights(stage: Usd.Stage, scene: Scene, bounds, names: _Names) -> None:
             lux.CreateNormalizeAttr(False)
             lux.CreateIntensityAttr(d_ref ** 2 / (light.width * light.length))
             prim = lux.GetPrim()
-            prim.CreateAttribute("rtc:normal", _T.Vector3d, custom=True).Set(Gf.Vec3d(*light.normal))
-            prim.CreateAttribute("rtc:width", _T.Double, custom=True).Set(light.width)
-            prim.CreateAttribute("rtc:length", _T.Double, custom=True).Set(light.length)
+            prim.ApplyAPI(LIGHT_API)
+            prim.CreateAttribute("rtc:normal", _T.Vector3d, custom=False).Set(Gf.Vec3d(*light.normal))
+            prim.CreateAttribute("rtc:width", _T.Double, custom=False).Set(light.width)
+            prim.CreateAttribute("rtc:length", _T.Double, custom=False).Set(light.length)
         lux.CreateColorAttr(Gf.Vec3f(*light.intensity))
         prim = lux.GetPrim()
-        prim.CreateAttribute("rtc:intensity", _T.Color3d, custom=True).Set(Gf.Vec3d(*light.intensity))
-        prim.CreateAttribute("rtc:referenceDistance", _T.Double, custom=True).Set(d_ref)
+        prim.ApplyAPI(LIGHT_API)
+        prim.CreateAttribute("rtc:intensity", _T.Color3d, custom=False).Set(Gf.Vec3d(*light.intensity))
+        prim.CreateAttribute("rtc:referenceDistance", _T.Double, custom=False).Set(d_ref)
+
+
+def _background(stage: Usd.Stage, scene: Scene) -> None:
+    """The course background colour as a constant DomeLight, which other tools read as the world
+    colour (Blender: the world's Background node).  `rtc:background` tells rtc that it is the
+    colour of escaping rays, not a light (the course does not light the scene with it)."""
+    dome = UsdLux.DomeLight.Define(stage, "/World/Lights/Background")
+    dome.CreateColorAttr(Gf.Vec3f(*scene.background))
+    dome.CreateIntensityAttr(1.0)
+    dome.GetPrim().ApplyAPI(DOME_API)
+    dome.GetPrim().CreateAttribute("rtc:background", _T.Bool, custom=False).Set(True)
 
 
 def area_light_frame(light: Light) -> np.ndarray:
@@ -346,18 +391,19 @@ def _texture_network(stage, material_path: str, surface, colour: str, tint, file
 
 
 def _rtc_parameters(prim: Usd.Prim, s: Shader, assets: AssetPlan) -> None:
-    prim.CreateAttribute("rtc:model", _T.Token, custom=True).Set(s.model)
+    prim.ApplyAPI(MATERIAL_API)
+    prim.CreateAttribute("rtc:model", _T.Token, custom=False).Set(s.model)
     for name, value in (("diffuse", s.diffuse), ("specular", s.specular),
                         ("attenuationCoef", s.attenuation)):
         if value is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Color3d, custom=True).Set(Gf.Vec3d(*value))
+            prim.CreateAttribute(f"rtc:{name}", _T.Color3d, custom=False).Set(Gf.Vec3d(*value))
     for name, value in (("phongExp", s.phong_exp), ("mirrorCoef", s.mirror_coef),
                         ("roughness", s.roughness), ("refractiveIndex", s.refractive_index)):
         if value is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Double, custom=True).Set(float(value))
+            prim.CreateAttribute(f"rtc:{name}", _T.Double, custom=False).Set(float(value))
     for name, texture in (("diffuseTexture", s.diffuse_texture), ("specularTexture", s.specular_texture)):
         if texture is not None:
-            prim.CreateAttribute(f"rtc:{name}", _T.Asset, custom=True).Set(
+            prim.CreateAttribute(f"rtc:{name}", _T.Asset, custom=False).Set(
                 Sdf.AssetPath(assets.asset_path(texture.path)))
 
 
@@ -370,9 +416,11 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: CompileOptions, ca
     settings.CreateAspectRatioConformPolicyAttr(UsdRender.Tokens.adjustApertureHeight)
     settings.CreateCameraRel().SetTargets([camera_path])
     prim = settings.GetPrim()
+    prim.ApplyAPI(SETTINGS_API)
     if options.spp is not None:
-        prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=True).Set(options.spp)
-    prim.CreateAttribute("rtc:backgroundColor", _T.Color3f, custom=True).Set(Gf.Vec3f(*scene.background))
+        prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=False).Set(options.spp)
+    # the course's renderers write linear values straight into their 8-bit PNGs (spec section 12)
+    prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=False).Set("linear")
 
 
 # ----------------------------------------------------------------------------- bulk (Sdf level)
@@ -382,6 +430,8 @@ class _Bulk:
     def __init__(self, layer: Sdf.Layer, materials: dict[int, str], names: _Names):
         self.layer, self.materials, self.names = layer, materials, names
         self.library: Optional[Sdf.PrimSpec] = None
+        self.shapes_library: Optional[Sdf.PrimSpec] = None
+        self.implicit_refs: dict[tuple, Sdf.Reference] = {}
         self.proto_paths: dict[int, Sdf.Path] = {}
 
     # -- helpers
@@ -402,12 +452,10 @@ class _Bulk:
             attr.default = value
         return attr
 
-    def _bind(self, spec: Sdf.PrimSpec, shader: Shader, stronger: bool = False) -> None:
+    def _bind(self, spec: Sdf.PrimSpec, shader: Shader) -> None:
         spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=["MaterialBindingAPI"]))
         rel = Sdf.RelationshipSpec(spec, "material:binding", False)
         rel.targetPathList.explicitItems = [Sdf.Path(self.materials[id(shader)])]
-        if stronger:
-            rel.SetInfo("bindMaterialAs", UsdShade.Tokens.strongerThanDescendants)
 
     def _ops(self, spec: Sdf.PrimSpec, motion: Motion, local: list[tuple[str, object]] = ()) -> None:
         """The course transform as xformOps in document order, then the geometry's own ops.
@@ -467,29 +515,23 @@ class _Bulk:
     def _geometry(self, parent: Sdf.PrimSpec, name: str, geometry: Geometry, shader: Shader,
                   motion: Motion, mesh_refs: dict) -> Sdf.PrimSpec:
         flat_box = isinstance(geometry, Box) and min(np.subtract(geometry.max, geometry.min)) == 0.0
-        type_name = {Sphere: "Sphere", Box: "Mesh" if flat_box else "Cube", Triangle: "Mesh",
-                     Cylinder: "Cylinder", MeshFile: "Mesh"}[type(geometry)]
-        spec = self._child(parent, name, type_name)
+        spec = self._child(parent, name, "Mesh")
         local: list[tuple[str, object]] = []
         if isinstance(geometry, Sphere):
-            self._attr(spec, "radius", _T.Double, geometry.radius)
             r = geometry.radius
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-r, -r, -r), (r, r, r)]))
+            self._implicit(spec, "Sphere", lambda: tessellation.sphere(r), {"radius": r}, (-r, -r, -r), (r, r, r))
             local.append(("xformOp:translate:center", Gf.Vec3d(*geometry.center)))
         elif flat_box:
             _author_box_mesh(self, spec, geometry)
         elif isinstance(geometry, Box):
-            self._attr(spec, "size", _T.Double, 1.0)
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-.5, -.5, -.5), (.5, .5, .5)]))
+            self._implicit(spec, "Cube", tessellation.cube, {"size": 1.0}, (-.5, -.5, -.5), (.5, .5, .5))
             lo, hi = np.array(geometry.min), np.array(geometry.max)
             local.append(("xformOp:translate:center", Gf.Vec3d(*((lo + hi) / 2))))
             local.append(("xformOp:scale:size", Gf.Vec3d(*(hi - lo))))
         elif isinstance(geometry, Cylinder):
-            self._attr(spec, "radius", _T.Double, geometry.radius)
-            self._attr(spec, "height", _T.Double, geometry.height)
-            self._attr(spec, "axis", _T.Token, "Y", uniform=True)
             r, h = geometry.radius, geometry.height / 2
-            self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([(-r, -h, -r), (r, h, r)]))
+            self._implicit(spec, "Cylinder", lambda: tessellation.cylinder(r, geometry.height),
+                           {"radius": r, "height": geometry.height}, (-r, -h, -r), (r, h, r))
             local.append(("xformOp:translate:center", Gf.Vec3d(*geometry.center)))
         elif isinstance(geometry, Triangle):
             _author_triangle(self, spec, geometry)
@@ -498,6 +540,41 @@ class _Bulk:
         self._ops(spec, motion, local)
         self._bind(spec, shader)
         return spec
+
+    def _implicit(self, spec: Sdf.PrimSpec, kind: str, polygons, sizes: dict, lo, hi) -> None:
+        """A course sphere, box or cylinder: a reference to its mesh in /Prototypes/Shapes, one per
+        distinct shape and size (a scene of 825 primitives has a handful)."""
+        key = (kind, *sizes.values())
+        ref = self.implicit_refs.get(key)
+        if ref is None:
+            if self.shapes_library is None:
+                self.shapes_library = self._root("/Prototypes/Shapes", "", Sdf.SpecifierOver)
+                self.names.taken.setdefault("/Prototypes", set()).add("Shapes")
+            mesh = self._child(self.shapes_library, kind, "Mesh")
+            self._implicit_mesh(mesh, kind, polygons(), sizes, lo, hi)
+            ref = self.implicit_refs[key] = Sdf.Reference("", mesh.path)
+        spec.referenceList.Prepend(ref)
+
+    def _implicit_mesh(self, spec: Sdf.PrimSpec, kind: str, polygons, sizes: dict, lo, hi) -> None:
+        """The polygons of `tessellation` for other tools (they keep the material binding, see
+        tessellation.py) plus the exact UsdGeom shape for rtc: `rtc:implicit` = its type name and
+        `rtc:<size>` = its size attributes (axis Y)."""
+        points, counts, indices, normals = polygons
+        self._attr(spec, "points", _T.Point3fArray, Vt.Vec3fArray.FromNumpy(points.astype(np.float32)))
+        self._attr(spec, "faceVertexCounts", _T.IntArray, Vt.IntArray.FromNumpy(counts.astype(np.int32)))
+        self._attr(spec, "faceVertexIndices", _T.IntArray, Vt.IntArray.FromNumpy(indices.astype(np.int32)))
+        self._attr(spec, "subdivisionScheme", _T.Token, "none", uniform=True)
+        if kind != "Cube":                        # smooth around; the cube's faces stay flat
+            normal = self._attr(spec, "primvars:normals", _T.Normal3fArray,
+                                Vt.Vec3fArray.FromNumpy(normals.astype(np.float32)))
+            normal.SetInfo("interpolation", UsdGeom.Tokens.vertex)
+        self._attr(spec, "extent", _T.Float3Array, Vt.Vec3fArray([lo, hi]))
+        spec.SetInfo("apiSchemas", Sdf.TokenListOp.Create(prependedItems=[IMPLICIT_API]))
+        self._attr(spec, "rtc:implicit", _T.Token, kind, uniform=True)
+        for name, value in sizes.items():
+            self._attr(spec, f"rtc:{name}", _T.Double, value)
+        if kind == "Cylinder":
+            self._attr(spec, "rtc:axis", _T.Token, "Y", uniform=True)
 
     def shapes(self, shapes: list[Shape], mesh_refs: dict) -> None:
         if not shapes:
@@ -534,8 +611,6 @@ class _Bulk:
             spec.referenceList.Prepend(references[id(p.prototype)])
             spec.instanceable = True
             self._ops(spec, p.motion)
-            if p.shader is not None:
-                self._bind(spec, p.shader, stronger=True)
 
     def placements_as_text(self, placements: list[Placement]) -> Optional[str]:
         """What `placements` authors, as .usda text for the children of an empty
@@ -549,7 +624,6 @@ class _Bulk:
             placements,
             name_of=lambda p: unique(parent_path, p.name),
             prototype_path=lambda p: protos[id(p.prototype)],
-            material_path=lambda p: self.materials[id(p.shader)],
             op_plan=_op_plan)
 
 

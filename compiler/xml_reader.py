@@ -9,6 +9,7 @@ Quirk handling follows shared/xml-format.md section 13 (Qn below refers to it).
 """
 from __future__ import annotations
 
+import difflib
 import math
 import re
 from pathlib import Path
@@ -43,6 +44,14 @@ _GEOMETRY_CHILDREN = {
     "cylinder": ("center", "radius", "height"),
     "mesh": ("file",),
 }
+#: Student shape types read as a sphere (spec section 7: S1's `skysphere`).
+_SPHERE_LIKE = ("skysphere",)
+#: Values a course shader gets for a parameter it lacks (the course's C++ structures start at zero;
+#: mirrorCoef 0, roughness 0 and attenuation 1 1 1 as in spec section 6).  Zero specular reads a
+#: `BlinnPhong` with only <diffuse> as the Lambertian it then is.
+COURSE_DEFAULTS: dict[str, object] = {
+    "diffuse": (0.0, 0.0, 0.0), "specular": (0.0, 0.0, 0.0), "phongExp": 1.0, "mirrorCoef": 0.0,
+}
 _ALL_GEOMETRY = {c for names in _GEOMETRY_CHILDREN.values() for c in names}
 _CUBE_FACES = ("posX", "negX", "posY", "negY", "posZ", "negZ")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
@@ -53,14 +62,53 @@ _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=Fal
 def read_scene(path: Path, diags: Diagnostics) -> Scene:
     """Read and check a scene file.  Raises CompileError when the scene has errors."""
     root = _parse(path, diags)
+    omitted = _settle_types(root, diags)
     if not schema.is_valid(root.getroottree()):  # else nothing unknown to report (closed schema)
         schema.remove_unknown(root, diags)
         schema.validate(root.getroottree(), diags)
     diags.raise_if_errors()                     # typed reading assumes a structurally valid tree
-    scene = _Reader(path, diags).scene(root)
+    scene = _Reader(path, diags, omitted).scene(root)
     diags.raise_if_errors()
     return scene
 
+
+def _settle_types(root, diags: Diagnostics) -> set[str]:
+    """Unknown shader and shape types get the closest reading, with a warning, before the (closed)
+    schema sees them: a misspelt type (`Mirrored`, `spheer`) is read as the known type it is
+    closest to; any other shader is a Lambertian of its diffuse colour; a student `skysphere` is a
+    sphere (seen from inside when the camera is in it); any other shape or prototype is omitted.
+    Returns the names of omitted prototypes, whose placements are then omitted quietly."""
+    omitted: set[str] = set()
+    for el in root.iter("shader"):
+        kind = el.get("type")
+        if kind is not None and kind not in SHADER_MODELS:
+            reading = _closest(kind, SHADER_MODELS) or "Lambertian"
+            how = "a Lambertian of its diffuse colour" if reading == "Lambertian" else reading
+            diags.at(el).warning(f"unknown shader type '{kind}': read as {how}")
+            el.set("type", reading)
+    for el in [e for e in root if e.tag in ("shape", "instance")]:
+        kind = el.get("type")
+        known = (*_GEOMETRY_CHILDREN, "instance") if el.tag == "shape" else tuple(_GEOMETRY_CHILDREN)
+        if kind is None or kind in known:
+            continue
+        reading = "sphere" if kind in _SPHERE_LIKE else _closest(kind, known)
+        if reading is not None:
+            inside = " (seen from inside when the camera is in it)" if kind in _SPHERE_LIKE else ""
+            diags.at(el).warning(f"unknown shape type '{kind}': read as a {reading}{inside}")
+            el.set("type", reading)
+            continue
+        what = "the prototype and its placements are" if el.tag == "instance" else "the shape is"
+        diags.at(el).warning(f"unknown shape type '{kind}': no course reading, {what} omitted")
+        if el.tag == "instance" and el.get("name"):
+            omitted.add(el.get("name"))
+        root.remove(el)
+    return omitted
+
+
+def _closest(kind: str, known) -> Optional[str]:
+    """The known type a misspelt one most resembles (difflib ratio 0.8 or more), or None."""
+    match = difflib.get_close_matches(kind, list(known), n=1, cutoff=0.8)
+    return match[0] if match else None
 
 def _parse(path: Path, diags: Diagnostics):
     try:
@@ -108,7 +156,7 @@ def _unreadable_image(path: Path) -> Optional[str]:
 
 
 class _Reader:
-    def __init__(self, path: Path, diags: Diagnostics):
+    def __init__(self, path: Path, diags: Diagnostics, omitted: frozenset = frozenset()):
         self.path = path
         self.base = path.resolve().parent
         self.diags = diags
@@ -117,6 +165,7 @@ class _Reader:
         self.prototypes: dict[str, Prototype] = {}
         self.used: set[int] = set()             # id() of referenced definitions
         self.broken: set[tuple[int, str]] = set()  # (table, name) of definitions that had errors
+        self.broken.update((id(self.prototypes), name) for name in omitted)
 
     # ------------------------------------------------------------------ scene
     def scene(self, root) -> Scene:
@@ -280,10 +329,11 @@ class _Reader:
         if "sourcefile" not in c:
             self.diags.at(el).error("a texture needs a <sourcefile>")
             return None
-        path = self._existing_file(c["sourcefile"], "texture image")
+        fallback = "the shader's colour is used instead"
+        path = self._existing_file(c["sourcefile"], "texture image", fallback)
         problem = _unreadable_image(path) if path else None
         if problem:
-            self.diags.at(c["sourcefile"]).error(f"texture image {path}: {problem}")
+            self.diags.at(c["sourcefile"]).warning(f"texture image {path}: {problem}; {fallback}")
             return None
         return Texture(el.get("name"), path, el.sourceline) if path else None
 
@@ -301,7 +351,9 @@ class _Reader:
             at.warning("Dielectric without <refractiveIndex>: using 1.5 (glass)")
             required = ()
         for missing in (p for p in required if p not in c):
-            at.error(f"a {course_type} shader needs <{missing}>")
+            default = COURSE_DEFAULTS[missing]
+            text = " ".join(f"{v:g}" for v in default) if isinstance(default, tuple) else f"{default:g}"
+            at.warning(f"a {course_type} shader has no <{missing}>: using the course's default {text}")
         known = set(required) | set(optional) | {"diffusetex"}
         for extra in (p for p in c if p not in known):
             self.diags.at(c[extra]).warning(f"<{extra}> is not a parameter of a {course_type} shader; "
@@ -311,11 +363,11 @@ class _Reader:
         for param in (p for p in (*required, *optional) if p in c):
             values[param] = (self._colour(c[param]) if param in _COLOUR_PARAMS else
                              self._scalar(c[param], minimum=0.0))
-        shader.diffuse = values.get("diffuse")
-        shader.specular = values.get("specular")
-        shader.phong_exp = values.get("phongExp")
+        shader.diffuse = values.get("diffuse", _default("diffuse", required))
+        shader.specular = values.get("specular", _default("specular", required))
+        shader.phong_exp = values.get("phongExp", _default("phongExp", required))
         if "mirrorCoef" in required:
-            shader.mirror_coef = values.get("mirrorCoef")
+            shader.mirror_coef = values.get("mirrorCoef", COURSE_DEFAULTS["mirrorCoef"])
             if shader.mirror_coef is not None and shader.mirror_coef > 1.0:
                 self.diags.at(c["mirrorCoef"]).warning("mirrorCoef above 1 reflects more light than "
                                                        "arrives")
@@ -431,7 +483,8 @@ class _Reader:
             self.diags.at(el).error(f"a {kind} needs " + ", ".join(f"<{n}>" for n in missing))
             return None
         if kind == "mesh":
-            path = self._existing_file(c["file"], "mesh file")
+            path = self._existing_file(c["file"], "mesh file", "the prototype and its placements are omitted"
+                                       if el.tag == "instance" else "the shape is omitted")
             return MeshFile(path, c["file"].sourceline) if path else None
         if kind == "sphere":
             center, radius = self._vector(c["center"]), self._positive(c["radius"])
@@ -557,14 +610,16 @@ class _Reader:
                 first[tag] = child
         return first, transforms
 
-    def _existing_file(self, el, what: str) -> Optional[Path]:
+    def _existing_file(self, el, what: str, fallback: str) -> Optional[Path]:
+        """The file an element names, or None with a warning saying what happens without it (the
+        course parsers go on without a missing mesh or image)."""
         text = (el.text or "").strip()
         if not text:
-            self.diags.at(el).error(f"empty {what} path")
+            self.diags.at(el).warning(f"empty {what} path; {fallback}")
             return None
         path = (self.base / text).resolve()
         if not path.is_file():
-            self.diags.at(el).error(f"{what} '{text}' not found (looked for {path})")
+            self.diags.at(el).warning(f"{what} '{text}' not found (looked for {path}); {fallback}")
             return None
         return path
 
@@ -670,6 +725,11 @@ def _greedy(text: str, count: int) -> Optional[tuple[float, ...]]:
         values.append(float(match.group()))
         pos = match.end()
     return tuple(values)
+
+
+def _default(param: str, required: tuple):
+    """The course default of a required parameter the shader lacks (None if not required)."""
+    return COURSE_DEFAULTS[param] if param in required else None
 
 
 def _append(items: list, obj) -> None:

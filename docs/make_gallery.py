@@ -8,6 +8,7 @@ so the gallery is also an end-to-end check that every example scene compiles and
 from __future__ import annotations
 
 import argparse
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -17,12 +18,12 @@ import OpenImageIO as oiio
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / 'docs' / 'gallery'
-COURSE = ROOT.parent / 'shared' / 'corpus' / 'course'
+COURSE = Path(os.environ.get('RTC_SHARED', ROOT.parent / 'shared')) / 'corpus' / 'course'
 
 
-def render(scene: Path, out: Path, width: int, height: int, spp: int) -> float:
+def render(scene: Path, out: Path, width: int, height: int, spp: int, *extra: str) -> float:
     cmd = [sys.executable, '-m', 'rtc.cli', 'render', str(scene), '-o', str(out), '--width', str(width),
-           '--height', str(height), '--spp', str(spp), '-q']
+           '--height', str(height), '--spp', str(spp), '-q', *extra]
     subprocess.run(cmd, check=True)
     return out.stat().st_size
 
@@ -44,8 +45,14 @@ def main() -> None:
     ap.add_argument('--width', type=int, default=320)
     ap.add_argument('--height', type=int, default=240)
     ap.add_argument('--course', action='store_true', help='also render the course scenes (contact sheet)')
+    ap.add_argument('--course-look', action='store_true',
+                    help='only the "course look" row: course scenes as rtc renders them by default (the '
+                         "course's linear 8-bit encoding and light semantics) beside sRGB-encoded")
     a = ap.parse_args()
     OUT.mkdir(parents=True, exist_ok=True)
+    if a.course_look:
+        course_look(a.spp)
+        return
     for scene in sorted((ROOT / 'scenes').glob('*.xml')):
         out = OUT / f'{scene.stem}.png'
         print(f'{scene.name} -> {out.relative_to(ROOT)} ({render(scene, out, a.width, a.height, a.spp)} bytes)')
@@ -62,6 +69,28 @@ def main() -> None:
             p.unlink()
         tmp.rmdir()
         print(f'{len(done)} course scenes -> docs/gallery/course-scenes.png')
+
+
+COURSE_LOOK = ('scenes_B/threeEggs.xml', 'scenes_B/areaLight.xml', 'scenes_A/simpleTwoSpheres.xml')
+
+
+def course_look(spp: int) -> None:
+    """docs/gallery/course-look.png: per course scene (a row), rtc's default render (linear 8-bit
+    values, course light semantics in cook) and the same render sRGB-encoded."""
+    tmp = OUT / 'course-look'
+    tmp.mkdir(exist_ok=True)
+    done = []
+    for rel in COURSE_LOOK:
+        scene = COURSE / rel
+        for look, extra in (('course', ()), ('srgb', ('--encoding', 'srgb'))):
+            out = tmp / f'{scene.stem}-{look}.png'
+            render(scene, out, 240, 180, spp, *extra)
+            done.append(out)
+    contact_sheet(done, OUT / 'course-look.png', columns=2)
+    for p in done:
+        p.unlink()
+    tmp.rmdir()
+    print(f'{len(COURSE_LOOK)} course scenes -> docs/gallery/course-look.png')
 
 
 if __name__ == '__main__':

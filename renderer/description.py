@@ -144,6 +144,7 @@ class Light:
     height: float = 0.0                     # RECT (local Y)
     angle: float = 0.0                      # DISTANT: angular diameter in degrees
     texture: int = -1                       # DOME: lat-long texture, -1 = constant colour
+    course_intensity: Optional[tuple] = None  # a course light (RtcCourseLightAPI): the course's intensity I
     # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space
     # area when normalize is on); a POINT light's `radiance` is its radiant intensity I, so the irradiance
     # at distance d facing it is I / d**2.  DISTANT: irradiance E on a surface facing it.
@@ -179,6 +180,7 @@ class RenderSettings:
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
     path: Optional[str] = None              # the settings prim, for messages
+    encoding: Optional[str] = None          # 8/16-bit image encoding the stage asks for (rtc:imageEncoding)
 
 
 @dataclass

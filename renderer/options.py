@@ -30,6 +30,7 @@ MAX_THREADS = 1024            # Embree starts every thread it is given (threads=
 MAX_SEED = 2 ** 32 - 1
 DEFAULT_SIZE = (640, 480)     # a stage without render settings (the compiler always writes them)
 DEFAULT_SPP = 16
+ENCODINGS = ('srgb', 'linear')  # 8/16-bit image encodings (renderer/host/film.py write_image)
 
 
 @dataclass
@@ -45,6 +46,7 @@ class RenderOptions:
     pass_seconds: Optional[float] = None
     depth_of_field: Optional[bool] = None
     motion_blur: Optional[bool] = None
+    encoding: Optional[str] = None       # 8/16-bit images: 'srgb' | 'linear' (course scenes ask for linear)
 
 
 #: the options that determine the image (a checkpoint continues only a render with the same ones)
@@ -70,7 +72,8 @@ def resolve(asked: Optional[RenderOptions] = None, settings: Optional[RenderSett
     if asked.spp is None:
         _check(_spp_error(spp), stage + ' rtc:samplesPerPixel')
     rest = {k: getattr(asked, k) if getattr(asked, k) is not None else v for k, v in DEFAULTS.items()}
-    return replace(asked, width=int(width), height=int(height), spp=int(spp), **rest)
+    encoding = asked.encoding or settings.encoding or 'srgb'
+    return replace(asked, width=int(width), height=int(height), spp=int(spp), encoding=encoding, **rest)
 
 
 def image_size(width: Optional[int], height: Optional[int], settings: RenderSettings) -> tuple[int, int]:
@@ -106,6 +109,8 @@ def validate(o: RenderOptions) -> None:
         _check(f'threads {o.threads} is out of range (1..{MAX_THREADS})')
     if o.pass_seconds is not None and not 0 < o.pass_seconds < float('inf'):
         _check(f'pass seconds {o.pass_seconds} must be a positive number')
+    if o.encoding is not None and o.encoding not in ENCODINGS:
+        _check(f"unknown encoding '{o.encoding}' (choose from {', '.join(ENCODINGS)})")
 
 
 def _image_size_error(width: int, height: int) -> Optional[str]:

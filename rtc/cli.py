@@ -98,9 +98,13 @@ def _resumed_film(ckpt_path: Path, resolved):
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
 @click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz (a shot: skip the frames already written).')
+@click.option('--encoding', type=click.Choice(['srgb', 'linear']),   # renderer/options.py ENCODINGS
+              help="8/16-bit outputs: sRGB, or linear values as the course's renderers write them (default: "
+                   "what the stage asks for, linear for course scenes, else sRGB).")
+@click.option('--strict', is_flag=True, help='Treat warnings about the scene as failures (exit 1, nothing written).')
 @click.option('-q', '--quiet', is_flag=True)
 @shot_options
-def render_cmd(scene, output, camera, checkpoint, resume, quiet, **asked):
+def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
     # every option not named in the signature is a RenderOptions field (`asked`): a new render option
     # is a click option above and a field in renderer/options.py (docs/architecture.md)
@@ -114,7 +118,7 @@ def render_cmd(scene, output, camera, checkpoint, resume, quiet, **asked):
     asked = checked_options(**asked)
     if checkpoint is not None and not 0 < checkpoint < float('inf'):
         _fail(f'--checkpoint must be a positive number of seconds, got {checkpoint}')
-    desc = load_scene(scene, camera=camera, options=asked, quiet=quiet)
+    desc = load_scene(scene, camera=camera, options=asked, quiet=quiet, strict=strict)
     resolved = desc.options
     film = _resumed_film(ckpt_path, resolved) if resume else None
     stop = _StopFlag()
@@ -144,7 +148,7 @@ def render_cmd(scene, output, camera, checkpoint, resume, quiet, **asked):
     except RenderError as e:
         _fail(str(e))
     try:
-        write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)})
+        write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)}, encoding=resolved.encoding)
     except FilmError as e:
         _fail(str(e))
     if res.interrupted or checkpoint:

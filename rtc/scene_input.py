@@ -9,13 +9,14 @@ from pathlib import Path
 
 import click
 
-from .exits import EXIT_ERROR, fail
+from .exits import EXIT_ERROR, EXIT_WARNINGS, fail
 
 
-def load_scene(path: str, *, camera=None, time=None, options=None, quiet=False):
+def load_scene(path: str, *, camera=None, time=None, options=None, quiet=False, strict=False):
     """A SceneDescription from a USD file, or from a course XML file compiled in memory (the compiler
     writes what the XML says; `options`, what the render asks for, are resolved against the stage's
-    render settings by the reader, the same way for both)."""
+    render settings by the reader, the same way for both).  `strict`: any warning of the compiler
+    or the reader (a prim skipped included) is printed and exits 1."""
     from .renderer.errors import RenderError, SceneError
     from .renderer.usd.stage import read_stage
     p = Path(path)
@@ -31,17 +32,23 @@ def load_scene(path: str, *, camera=None, time=None, options=None, quiet=False):
             for d in e.diagnostics:
                 click.echo(str(d), err=True)
             sys.exit(EXIT_ERROR)
-        if not quiet:
+        if not quiet or strict:
             for d in diags:
                 click.echo(str(d), err=True)
+        if strict and diags:
+            sys.exit(EXIT_WARNINGS)
         source = stage
     try:
         desc = read_stage(source, time=time, camera_path=camera, options=options)
     except (SceneError, RenderError) as e:
         fail(f'{path}: {e}' if isinstance(e, RenderError) else str(e))
-    if not quiet:
+    if not quiet or strict:
         for w in desc.warnings:
             click.echo(f'{path}: warning: {w}', err=True)
+    if strict and (desc.warnings or desc.skipped):
+        for s in desc.skipped:
+            click.echo(f'{path}: warning: skipped {s}', err=True)
+        sys.exit(EXIT_WARNINGS)
     return desc
 
 

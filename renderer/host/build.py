@@ -214,6 +214,8 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
             li_tex[k] = l.texture
         LIGHT_F.write(li_f[k], M=m3.ravel(), RAD=l.radiance, RADIUS=radius, W=l.width, H=l.height,
                       COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area)
+        if l.course_intensity is not None and l.type in (D.POINT, D.RECT):
+            LIGHT_F.write(li_f[k], COURSE=1.0, COURSE_I=l.course_intensity)
     return li_type, li_f, li_tex
 
 

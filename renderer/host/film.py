@@ -197,13 +197,17 @@ def _sanitize(rgb) -> tuple[np.ndarray, int]:
 
 
 def write_image(path, rgb, metadata: dict | None = None, *, exr_half: bool = False,
-                jpeg_quality: int = 95) -> int:
+                jpeg_quality: int = 95, encoding: str = 'srgb') -> int:
     """Write a linear float image (h, w, 3) to ``path`` atomically; format from the extension.
 
     ``metadata`` keys become image attributes (e.g. ``rtc:spp``, ``rtc:sampler``,
     ``rtc:seconds``, ``rtc:rays``, ``rtc:seed``, ``Software``): typed in EXR, strings elsewhere.
+    ``encoding`` applies to the 8/16-bit formats: ``srgb`` (the standard) or ``linear`` (values
+    written straight into the integers, as the course's renderers do; tagged linear).
     Returns the number of non-finite values that were replaced by 0.  Raises ``FilmError``."""
     path = os.fspath(path)
+    if encoding not in ('srgb', 'linear'):
+        raise FilmError(f'cannot write {path}: unknown encoding {encoding!r} (use srgb or linear)')
     ext = os.path.splitext(path)[1].lower()
     if ext not in LINEAR_FORMATS and ext not in SRGB_FORMATS:
         raise FilmError('cannot write %s: unknown image extension %r (use %s)'
@@ -225,10 +229,11 @@ def write_image(path, rgb, metadata: dict | None = None, *, exr_half: bool = Fal
     else:
         fmt = SRGB_FORMATS[ext]
         spec = oiio.ImageSpec(w, h, c, fmt)
-        pixels = quantize(srgb_encode(data), np.dtype(fmt))
+        encoded = srgb_encode(data) if encoding == 'srgb' else np.clip(data, 0.0, 1.0)
+        pixels = quantize(encoded, np.dtype(fmt))
         if c == 4:                        # alpha is linear coverage, not sRGB-encoded
             pixels[..., 3] = quantize(np.clip(data[..., 3], 0, 1), np.dtype(fmt))
-        spec.attribute('oiio:ColorSpace', 'sRGB')
+        spec.attribute('oiio:ColorSpace', 'sRGB' if encoding == 'srgb' else 'lin_rec709')
         if ext in ('.jpg', '.jpeg'):
             spec.attribute('Compression', 'jpeg:%d' % jpeg_quality)
             spec.attribute('jpeg:subsampling', '4:4:4')

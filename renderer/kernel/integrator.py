@@ -34,7 +34,7 @@ from .cameras import camera_rays
 from .dimensions import bsdf_dim, choice_dim, light_dim, pixel_dim, time_dim
 from .filters import filter_offset
 from .jit import INLINE_JIT, JIT, PARALLEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .lights import escaped_radiance, light_is_area, sample_light
+from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .ray_record import record
@@ -299,7 +299,7 @@ def _direct_light(S, tr, rec, path, sp, depth, state):
     time = path.time
     for k in range(n_lights):
         u1, u2 = _light_sample(S, path, depth, k, n_lights, tr.queue)
-        wi, dist, E = sample_light(S, k, sp.p, sp.ns, u1, u2)
+        wi, dist, E = sample_course_light(S, k, sp.p, sp.ns, u1, u2)
         if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
             continue
         if dot(wi, sp.ng) <= 0.0:

@@ -17,7 +17,7 @@ import numba as nb
 
 from .. import description as D
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .tables import LF_AREA, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
 from .vecmath import dot, normalize, onb, sub, to_world
 
@@ -153,6 +153,31 @@ def _sample_dome(S, k, n, u1, u2):
     Le = dome_radiance(S, k, wi)
     s = math.pi / z
     return wi, INF, (Le[0] * s, Le[1] * s, Le[2] * s)
+
+
+@nb.njit(**SHADING_JIT, inline='always')
+def sample_course_light(S, k, p, n, u1, u2):
+    """`sample_light` for the cook integrator: a course light (LF_COURSE, from the rtc: attributes
+    the compiler writes) is shaded as the course shades it, E_perp = its intensity I at every
+    sample point with no distance fall-off, no cosine at an area light and both of its sides lit
+    (xml-format.md section 4); any other light as `sample_light`."""
+    lf = S.li_f
+    if lf[k, LF_COURSE] == 0.0:
+        return sample_light(S, k, p, n, u1, u2)
+    q = _col(lf, k, 3)
+    if S.li_type[k] == D.RECT:
+        ex = _col(lf, k, 0)
+        ey = _col(lf, k, 1)
+        a = (u1 - 0.5) * lf[k, LF_W]
+        b = (u2 - 0.5) * lf[k, LF_H]
+        q = (q[0] + a * ex[0] + b * ey[0], q[1] + a * ex[1] + b * ey[1], q[2] + a * ex[2] + b * ey[2])
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+    d = math.sqrt(d2)
+    r = 1.0 / d
+    return (v[0] * r, v[1] * r, v[2] * r), d, (lf[k, LF_COURSE_I], lf[k, LF_COURSE_I + 1], lf[k, LF_COURSE_I + 2])
 
 
 @nb.njit(**SHADING_JIT)

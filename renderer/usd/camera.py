@@ -37,8 +37,8 @@ def render_settings_prim(stage: Usd.Stage, candidates: list[Usd.Prim]) -> Option
 
 def read_render_settings(prim: Optional[Usd.Prim], time: Usd.TimeCode) -> tuple[RenderSettings, tuple, str]:
     """(settings, background colour, aspect-ratio conform policy) from a RenderSettings prim
-    (defaults when None): resolution, camera, custom ``rtc:samplesPerPixel`` and
-    ``rtc:backgroundColor``, disableMotionBlur, disableDepthOfField."""
+    (defaults when None): resolution, camera, custom ``rtc:samplesPerPixel``, ``rtc:imageEncoding``
+    and ``rtc:backgroundColor``, disableMotionBlur, disableDepthOfField."""
     settings, background, policy = RenderSettings(), (0.0, 0.0, 0.0), UsdRender.Tokens.expandAperture
     if prim is None:
         return settings, background, policy
@@ -53,6 +53,9 @@ def read_render_settings(prim: Optional[Usd.Prim], time: Usd.TimeCode) -> tuple[
     spp = prim.GetAttribute('rtc:samplesPerPixel')
     if spp and spp.Get(time) is not None:
         settings.samples_per_pixel = int(spp.Get(time))
+    encoding = prim.GetAttribute('rtc:imageEncoding')
+    if encoding and encoding.Get(time) in ('srgb', 'linear'):
+        settings.encoding = str(encoding.Get(time))
     bg = prim.GetAttribute('rtc:backgroundColor')
     if bg and bg.Get(time) is not None:
         background = tuple(float(x) for x in bg.Get(time))

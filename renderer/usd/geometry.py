@@ -24,7 +24,7 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pxr import Sdf, Usd, UsdGeom
+from pxr import Sdf, Tf, Usd, UsdGeom
 
 from ..description import Mesh, Sphere
 
@@ -52,7 +52,20 @@ def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, 
         raise GeometryError(f'{prim.GetPath()}: non-finite transform')
     if abs(np.linalg.det(to_container[:3, :3])) < 1e-300:
         raise GeometryError(f'{prim.GetPath()}: singular transform')
-    return _CONVERTERS[prim.GetTypeName()](prim, to_container, time, warn)
+    return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn)
+
+
+def implicit_type(prim: Usd.Prim) -> str:
+    """The gprim type to read: a `Mesh` with `rtc:implicit` (rtc's compiler writes course spheres,
+    boxes and cylinders so, for tools that bind materials to meshes only) is read as that exact
+    UsdGeom shape, its sizes in `rtc:<attribute>`; anything else as its own type."""
+    kind = prim.GetTypeName()
+    if kind == 'Mesh':
+        attr = prim.GetAttribute('rtc:implicit')
+        value = attr.Get() if attr else None
+        if value in IMPLICIT_TYPES:
+            return value
+    return kind
 
 
 # --------------------------------------------------------------------------- meshes
@@ -88,14 +101,50 @@ def _per_corner(values, interpolation: str, face: np.ndarray, corner: np.ndarray
     return None
 
 
-def _authored_normals(mesh: UsdGeom.Mesh, time):
-    """(values, interpolation) of primvars:normals if authored, else of `normals`, else None."""
+def flattened(pv: UsdGeom.Primvar, time, warn: Warn, consequence: str):
+    """A primvar's values expanded through its indices, or None with one warning naming the prim
+    and the attribute and saying in words what is wrong (an index past the values, an element
+    size other than one, values that are not an array): the attribute is lost, not the prim."""
+    where = f'{pv.GetAttr().GetPrim().GetPath()}: {pv.GetAttr().GetName()}'
+    size = pv.GetElementSize()
+    try:
+        values = pv.ComputeFlattened(time)
+    except Tf.ErrorException:
+        values = None
+    if values is None or not hasattr(values, '__len__'):
+        raw = pv.Get(time)
+        count = len(raw) if hasattr(raw, '__len__') else 0
+        if pv.IsIndexed():
+            indices = np.asarray(pv.GetIndices(time), np.int64)
+            top = int(indices.max()) if len(indices) else -1
+            noun = 'value' if count == 1 else 'values'
+            why = (f'its indices reach {top} but it has {count} {noun}' if size == 1 else
+                   f'its {len(indices)} indices of elements of {size} values do not fit its {count} {noun}')
+        else:
+            why = 'it has no readable array of values'
+        warn(f'{where} cannot be used ({why}); {consequence}')
+        return None
+    if size != 1:
+        warn(f'{where} has element size {size} (one value per element expected); {consequence}')
+        return None
+    return values
+
+
+def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
+    """(values, interpolation) of primvars:normals if authored, else of `normals`, else None;
+    ((), None) when authored but unusable (already warned about)."""
     pv = UsdGeom.PrimvarsAPI(mesh).GetPrimvar('normals')
     if pv and pv.HasAuthoredValue():
-        return pv.ComputeFlattened(time), pv.GetInterpolation()
+        values = flattened(pv, time, warn, 'normals computed from the faces instead')
+        return ((), None) if values is None else (values, pv.GetInterpolation())
     attr = mesh.GetNormalsAttr()
     if attr.HasAuthoredValue():
-        return attr.Get(time), mesh.GetNormalsInterpolation()
+        values = attr.Get(time)
+        if not hasattr(values, '__len__'):
+            warn(f'{mesh.GetPath()}: normals has no readable array of values; normals computed from the '
+                 'faces instead')
+            return ((), None)
+        return values, mesh.GetNormalsInterpolation()
     return None
 
 
@@ -139,23 +188,26 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
     if left:
         corner = corner[:, [0, 2, 1]]
 
-    normals = None
-    authored = _authored_normals(mesh, time)
-    if authored is not None:
+    normals, dropped = None, False
+    authored = _authored_normals(mesh, time, warn)
+    if authored is not None and authored[1] is not None:
         normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
         if normals is None:
             warn(f'{path}: {len(authored[0])} normals do not match interpolation '
-                 f'"{authored[1]}"; normals ignored')
+                 f'"{authored[1]}" ({len(points)} points, {len(counts)} faces, {len(indices)} face '
+                 'corners); normals computed from the faces instead')
+    dropped = authored is not None and normals is None
     uvs = None
     st = uv_primvar(prim)
     if st is not None:
-        uvs = _per_corner(st.ComputeFlattened(time), st.GetInterpolation(), face, corner, indices,
-                          len(points), len(counts))
-        if uvs is None:
-            warn(f'{path}: primvar {st.GetPrimvarName()} does not match interpolation '
-                 f'"{st.GetInterpolation()}"; texture coordinates ignored')
-    smooth = normals is None and mesh.GetSubdivisionSchemeAttr().Get(time) not in (
-        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear)
+        values = flattened(st, time, warn, 'texture coordinates ignored')
+        if values is not None:
+            uvs = _per_corner(values, st.GetInterpolation(), face, corner, indices, len(points), len(counts))
+            if uvs is None:
+                warn(f'{path}: primvars:{st.GetPrimvarName()}: {len(values)} values do not match '
+                     f'interpolation "{st.GetInterpolation()}"; texture coordinates ignored')
+    smooth = normals is None and (dropped or mesh.GetSubdivisionSchemeAttr().Get(time) not in (
+        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear))
     whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim))
 
     # split by materialBind subsets: one record per subset (+ the faces in none of them)
@@ -239,12 +291,17 @@ def _axis_frame(axis: str) -> np.ndarray:
 
 
 def _shape(prim, name: str, time, default: float, positive=True) -> float:
-    attr = prim.GetAttribute(name)
+    attr = prim.GetAttribute(name if prim.GetTypeName() != 'Mesh' else f'rtc:{name}')
     value = attr.Get(time) if attr else None
     value = default if value is None else float(value)
     if not np.isfinite(value) or (positive and value <= 0) or value < 0:
         raise GeometryError(f'{prim.GetPath()}: {name} = {value} is not a valid size')
     return value
+
+
+def _axis(prim, time) -> str:
+    attr = prim.GetAttribute('axis' if prim.GetTypeName() != 'Mesh' else 'rtc:axis')
+    return (attr.Get(time) if attr else None) or 'Z'
 
 
 def _revolve(profile: list[tuple[float, float, float, float, float]]):
@@ -322,13 +379,13 @@ def _cylinder(prim, m, time, warn):
         rb = rt = _shape(prim, 'radius', time, 1.0)
     if rb == 0 and rt == 0:
         raise GeometryError(f'{prim.GetPath()}: both radii are 0')
-    return _quadric(prim, m, _frustum(rb, rt, h), prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, _frustum(rb, rt, h), _axis(prim, time),
                     _double_sided(prim))
 
 
 def _cone(prim, m, time, warn):
     h, r = _shape(prim, 'height', time, 2.0), _shape(prim, 'radius', time, 1.0)
-    return _quadric(prim, m, _frustum(r, 0.0, h), prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, _frustum(r, 0.0, h), _axis(prim, time),
                     _double_sided(prim))
 
 
@@ -347,7 +404,7 @@ def _capsule(prim, m, time, warn):
                 (rb * (a + np.pi / 2)) / total) for a in lat]
     profile += [(rt * np.cos(a), h / 2 + rt * np.sin(a), np.cos(a), np.sin(a),
                  (rb * np.pi / 2 + h + rt * a) / total) for a in -lat[::-1]]
-    return _quadric(prim, m, [_revolve(profile)], prim.GetAttribute('axis').Get(time) or 'Z',
+    return _quadric(prim, m, [_revolve(profile)], _axis(prim, time),
                     _double_sided(prim))
 
 
@@ -370,7 +427,7 @@ def _cube(prim, m, time, warn):
 def _plane(prim, m, time, warn):
     """A two-triangle rectangle facing +axis; always double-sided (a plane has no inside)."""
     w, length = _shape(prim, 'width', time, 2.0), _shape(prim, 'length', time, 2.0)
-    axis = prim.GetAttribute('axis').Get(time) or 'Z'
+    axis = _axis(prim, time)
     # (u, v, normal) axes with u x v = normal, and the extent along each in-plane axis
     frames = {'Z': ((0, 1, 2), (w, length)), 'X': ((1, 2, 0), (length, w)), 'Y': ((2, 0, 1), (length, w))}
     (iu, iv, inorm), (su, sv) = frames[axis] if axis in frames else frames['Z']
@@ -388,6 +445,7 @@ def _sphere(prim, m, time, warn):
     return [Sphere(path=str(prim.GetPath()), radius=r, matrix=np.array(m, np.float64))]
 
 
+IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
 _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,

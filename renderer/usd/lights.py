@@ -89,6 +89,15 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
         return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture)
 
     frame, scale = rigid_frame(to_world)
+    light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
+    course = prim.GetAttribute('rtc:intensity')
+    if light is not None and course and course.Get(time) is not None:
+        light.course_intensity = _rgb(course.Get(time))
+    return light
+
+
+def _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn) -> Optional[Light]:
+    """The UsdLux radiometry of a distant, sphere, rect or disk light (see the module docstring)."""
     if kind == 'DistantLight':
         angle = float(UsdLux.DistantLight(prim).GetAngleAttr().Get(time))
         theta = min(max(math.radians(angle) / 2, 0.0), math.pi)

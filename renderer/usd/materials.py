@@ -26,6 +26,7 @@ from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
 from ..description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+from .geometry import flattened
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
@@ -57,8 +58,14 @@ class MaterialTable:
         """The displayColor (or grey) material of a gprim with no usable bound material."""
         colour = GREY
         pv = UsdGeom.PrimvarsAPI(gprim).FindPrimvarWithInheritance('displayColor')
-        if pv:
-            values = np.asarray(pv.ComputeFlattened(self.time) or [], np.float64).reshape(-1, 3)
+        if pv and pv.HasAuthoredValue():
+            values = flattened(pv, self.time, self.warn, 'grey used instead')
+            values = np.asarray([] if values is None else values, np.float64)
+            if values.ndim != 2 or values.shape[1] != 3:
+                if values.size:
+                    self.warn(f'{gprim.GetPath()}: {pv.GetAttr().GetName()} is not a list of RGB '
+                              'colours; grey used instead')
+                values = np.empty((0, 3))
             if len(values) and np.all(np.isfinite(values)):
                 colour = tuple(float(x) for x in values.mean(axis=0))
         key = ('displayColor', colour)

@@ -111,6 +111,7 @@ class _Reader:
         self.warnings: list[str] = []
         self.skipped: list[str] = []
         self.materials = MaterialTable(self.tc, self.warn)
+        self.backgrounds: set[str] = set()     # DomeLights marked rtc:background (course background colour)
 
     def warn(self, message: str) -> None:
         self.warnings.append(message)
@@ -145,6 +146,10 @@ class _Reader:
         containers, instances = self._instances(graph, placed)
         frame = int(np.argmin(np.abs(np.asarray(times) - t)))
         lights = self._lights(graph, placed, frame, up)
+        backgrounds = [light for light in lights if light.path in self.backgrounds]
+        if backgrounds:                  # a course background: the colour of escaping rays, not a light
+            background = backgrounds[0].radiance
+            lights = [light for light in lights if light.path not in self.backgrounds]
 
         desc = SceneDescription(source=self.label, containers=containers, instances=instances,
                                 materials=self.materials.materials, textures=self.materials.textures,
@@ -190,8 +195,9 @@ class _Reader:
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue
-            except (Tf.ErrorException, TypeError, ValueError) as exc:     # malformed attribute values
-                self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} ({_first_line(exc)})')
+            except (Tf.ErrorException, TypeError, ValueError):     # malformed attribute values
+                self.skipped.append(f'{prim.GetPath()}: unreadable {prim.GetTypeName()} '
+                                    f'({mistyped_attributes(prim)})')
                 continue
             shapes += [_Shape(r, str(r.path), purpose != INHERIT) for r in records]
         # Container.gprims order: meshes first, then spheres
@@ -339,15 +345,39 @@ class _Reader:
                 for w in world:
                     try:
                         light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
-                    except (Tf.ErrorException, TypeError, ValueError) as exc:
-                        self.skipped.append(f'{prim.GetPath()}: unreadable light ({_first_line(exc)})')
+                    except (Tf.ErrorException, TypeError, ValueError):
+                        self.skipped.append(f'{prim.GetPath()}: unreadable light ({mistyped_attributes(prim)})')
                         break
                     if light is not None:
                         lights.append(light)
+                        if _is_course_background(prim, self.tc):
+                            self.backgrounds.add(light.path)
         return lights
 
     def _dome_texture(self, asset, owner: str) -> int:
         return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner)
+
+
+def _is_course_background(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
+    """A constant DomeLight the compiler wrote for a course background colour (`rtc:background`):
+    other tools show it as the world colour; rtc gives it to escaping rays only, as the course
+    does, instead of lighting the scene with it a second time."""
+    attr = prim.GetAttribute('rtc:background')
+    return bool(attr and attr.Get(time)) and prim.GetTypeName() in ('DomeLight', 'DomeLight_1')
+
+
+def mistyped_attributes(prim: Usd.Prim) -> str:
+    """In words, which authored attributes of a prim do not have the type its schema declares
+    (the usual reason a prim cannot be read), e.g. "radius is a string, the schema says double"."""
+    definition = prim.GetPrimDefinition()
+    found = []
+    for attr in prim.GetAuthoredAttributes():
+        declared = definition.GetAttributeDefinition(attr.GetName())
+        stack = attr.GetPropertyStack(Usd.TimeCode.Default())
+        authored = stack[0].typeName if stack else None
+        if declared and authored is not None and authored != declared.GetTypeName():
+            found.append(f'{attr.GetName()} is a {authored}, the schema says {declared.GetTypeName()}')
+    return '; '.join(found) if found else 'an attribute value of a kind rtc cannot read'
 
 
 def _camera_world(prim: Usd.Prim, time: float) -> np.ndarray:

@@ -18,13 +18,6 @@ CASES = {
     "nan": (sphere(r="NaN"), 2, ["11: error: <radius>: NaN and infinity are not allowed: 'NaN'"]),
     "inf": (sphere(c="0 inf 0"), 2, ["11: error: <center>: NaN and infinity are not allowed: '0 inf 0'"]),
     "negative radius": (sphere(r="-1"), 2, ["11: error: <radius>: must be positive, got -1"]),
-    "unknown shape type": (sphere().replace('"sphere"', '"spheer"'), 2,
-                           ["11: error: <shape>: attribute 'type': 'spheer' is not one of 'sphere', 'box', "
-                            "'triangle', 'cylinder', 'mesh', 'instance'"]),
-    "unknown shader type": ('<shader name="x" type="Mirrored"/>', 2,
-                            ["11: error: <shader>: attribute 'type': 'Mirrored' is not one of 'Lambertian', "
-                             "'LambertianPT', 'BlinnPhong', 'Phong', 'BlinnPhongMirrored', 'Mirror', 'Glaze', "
-                             "'Dielectric', 'CoolToWarm'"]),
     "dangling shader": (sphere().replace('ref="grey"', 'ref="gray"'), 2,
                         ["11: error: <shader>: unknown shader 'gray' (defined before this point: grey)",
                          "10: warning: <shader>: shader 'grey' is never used and is not written"]),
@@ -32,13 +25,6 @@ CASES = {
                            ["11: error: <shape>: unknown instance prototype 'egg' (defined before this point: "
                             "none defined)",
                             "10: warning: <shader>: shader 'grey' is never used and is not written"]),
-    "missing mesh": ('<instance name="m" type="mesh"><file>objFiles/none.obj</file><shader ref="grey"/></instance>'
-                     '<shape type="instance" id="m"/>', 2,
-                     ["11: error: <file>: mesh file 'objFiles/none.obj' not found (looked for {dir}/objFiles/none.obj)"]),
-    "missing texture": ('<texture name="t" type="image"><sourcefile>images/none.png</sourcefile></texture>', 2,
-                        ["11: error: <sourcefile>: texture image 'images/none.png' not found (looked for "
-                         "{dir}/images/none.png)",
-                         "10: warning: <shader>: shader 'grey' is never used and is not written"]),
     "singular transform": (sphere(x="<transform><scale>1 0 1</scale></transform>"), 2,
                            ["11: error: <transform>: the transform is singular (a zero scale or collapsed axes): "
                             "it has no inverse"]),
@@ -56,6 +42,47 @@ CASES = {
     "missing geometry": ('<shape name="s" type="box"><shader ref="grey"/><minPt>0 0 0</minPt></shape>', 2,
                          ["11: error: <shape>: a box needs <maxPt>"]),
     # warnings: exit 1 with --strict, nothing written
+    "misspelt shape type": (sphere().replace('"sphere"', '"spheer"'), 1,
+                            ["11: warning: <shape>: unknown shape type 'spheer': read as a sphere"]),
+    "student skysphere": (sphere().replace('"sphere"', '"skysphere"'), 1,
+                          ["11: warning: <shape>: unknown shape type 'skysphere': read as a sphere (seen from "
+                           "inside when the camera is in it)"]),
+    "unknown shape type": ('<shape name="p" type="pyramid"><shader ref="grey"/></shape>', 1,
+                           ["11: warning: <shape>: unknown shape type 'pyramid': no course reading, the shape is "
+                            "omitted",
+                            "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "unknown prototype type": ('<instance name="p" type="pyramid"><shader ref="grey"/></instance>'
+                               '<shape type="instance" id="p"/>', 1,
+                               ["11: warning: <instance>: unknown shape type 'pyramid': no course reading, the "
+                                "prototype and its placements are omitted",
+                                "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "misspelt shader type": ('<shader name="x" type="Mirrored"/>', 1,
+                             ["11: warning: <shader>: unknown shader type 'Mirrored': read as Mirror",
+                              "10: warning: <shader>: shader 'grey' is never used and is not written",
+                              "11: warning: <shader>: shader 'x' is never used and is not written"]),
+    "student shader type": ('<shader name="x" type="Perlin"><diffuse>1 0 0</diffuse></shader>'
+                            + sphere().replace('ref="grey"', 'ref="x"'), 1,
+                            ["11: warning: <shader>: unknown shader type 'Perlin': read as a Lambertian of its "
+                             "diffuse colour",
+                             "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "shader missing parameters": ('<shader name="x" type="BlinnPhong"><diffuse>1 0 0</diffuse></shader>'
+                                  + sphere().replace('ref="grey"', 'ref="x"'), 1,
+                                  ["11: warning: <shader>: a BlinnPhong shader has no <specular>: using the "
+                                   "course's default 0 0 0",
+                                   "11: warning: <shader>: a BlinnPhong shader has no <phongExp>: using the "
+                                   "course's default 1",
+                                   "10: warning: <shader>: shader 'grey' is never used and is not written"]),
+    "missing mesh": ('<instance name="m" type="mesh"><file>objFiles/none.obj</file><shader ref="grey"/></instance>'
+                     '<shape type="instance" id="m"/>', 1,
+                     ["11: warning: <file>: mesh file 'objFiles/none.obj' not found (looked for "
+                      "{dir}/objFiles/none.obj); the prototype and its placements are omitted"]),
+    "missing plain mesh": ('<shape name="m" type="mesh"><file>none.obj</file><shader ref="grey"/></shape>', 1,
+                           ["11: warning: <file>: mesh file 'none.obj' not found (looked for {dir}/none.obj); the "
+                            "shape is omitted"]),
+    "missing texture": ('<texture name="t" type="image"><sourcefile>images/none.png</sourcefile></texture>', 1,
+                        ["11: warning: <sourcefile>: texture image 'images/none.png' not found (looked for "
+                         "{dir}/images/none.png); the shader's colour is used instead",
+                         "10: warning: <shader>: shader 'grey' is never used and is not written"]),
     "duplicate definition": ('<shader name="grey" type="Mirror"/>' + sphere(), 1,
                              ["11: warning: <shader>: shader 'grey' is already defined at line 10; the first "
                               "definition is used (as the course parser does)"]),
@@ -85,6 +112,38 @@ def test_warnings_without_strict_still_compile(tmp_path):
     result = run_compile(scene, "-o", tmp_path / "out.usda")
     assert result.exit_code == 0 and "already defined" in result.stderr
     assert (tmp_path / "out.usda").is_file()
+
+
+LFS = "version https://git-lfs.github.com/spec/v1\noid sha256:4d7a2146\nsize 5174\n"
+
+
+def test_lfs_pointers_fall_back_and_compile(tmp_path):
+    """A Git LFS pointer in place of the PNG and of the OBJ (as student repositories have them):
+    warnings naming file and line, the shader's colour, the mesh's shapes omitted, exit 0; the
+    written stage has the sphere and no mesh; --strict makes it exit 1 and write nothing."""
+    (tmp_path / "tex.png").write_text(LFS)
+    (tmp_path / "dragon.obj").write_text(LFS)
+    scene = write_scene(tmp_path, '<texture name="t" type="image"><sourcefile>tex.png</sourcefile></texture>'
+                                  '<shader name="tx" type="Lambertian"><diffuse tex="t">1 1 1</diffuse></shader>'
+                                  '<instance name="d" type="mesh"><file>dragon.obj</file><shader ref="grey"/>'
+                                  '</instance><shape name="p" type="instance" id="d"/>'
+                                  + sphere().replace('ref="grey"', 'ref="tx"'))
+    out = tmp_path / "out.usda"
+    strict = run_compile(scene, "-o", out, "--strict")
+    assert strict.exit_code == 1 and not out.exists()
+    result = run_compile(scene, "-o", out)
+    lines = result.stderr.splitlines()
+    assert result.exit_code == 0, result.stderr
+    assert lines[0].startswith(f"{scene}:11: warning: <sourcefile>: texture image {tmp_path}/tex.png: ")
+    assert lines[0].endswith("; the shader's colour is used instead")
+    assert lines[1] == (f"{scene}:11: warning: <file>: mesh file {tmp_path}/dragon.obj is a Git LFS pointer, "
+                        "not the mesh (fetch it with 'git lfs pull'); the shapes that use it are omitted")
+    from pxr import Usd, UsdGeom
+    stage = Usd.Stage.Open(str(out))
+    gprims = [p for p in stage.Traverse() if p.IsA(UsdGeom.Gprim)]
+    assert [(p.GetName(), p.GetAttribute("rtc:implicit").Get()) for p in gprims] == [("s", "Sphere")]
+    assert not [p for p in stage.Traverse() if p.GetTypeName() == "UsdUVTexture" or
+                p.GetAttribute("info:id").Get() == "UsdUVTexture"]
 
 
 def test_malformed_xml(tmp_path):

@@ -40,11 +40,20 @@ def test_objects_and_instances(compiled):
     instances = stage.GetPrimAtPath("/World/Instances").GetChildren() if scene.placements else []
     assert len(instances) == len(scene.placements)
     assert all(p.IsInstance() for p in instances)
-    assert len(stage.GetPrototypes()) == len(scene.used_prototypes())
+    # one USD prototype per (prototype, shader) pair: an overriding shader gets its own copy
+    pairs = {(id(p.prototype), id(p.effective_shader)) for p in scene.placements}
+    assert len(stage.GetPrototypes()) == len(pairs)
     for shape, prim in zip(scene.shapes, geometry):
         kind = type(shape.geometry).__name__
-        assert prim.GetTypeName() == {"Sphere": "Sphere", "Box": "Cube", "Triangle": "Mesh",
-                                      "Cylinder": "Cylinder", "MeshFile": "Mesh"}[kind]
+        # every gprim is a Mesh (for tools that bind materials to meshes only); a sphere, box or
+        # cylinder also names its exact UsdGeom shape in rtc:implicit, which rtc renders
+        assert prim.GetTypeName() == "Mesh"
+        implicit = prim.GetAttribute("rtc:implicit").Get() if prim.HasAttribute("rtc:implicit") else None
+        flat = kind == "Box" and min(np.subtract(shape.geometry.max, shape.geometry.min)) == 0
+        assert implicit == {"Sphere": "Sphere", "Box": None if flat else "Cube", "Triangle": None,
+                            "Cylinder": "Cylinder", "MeshFile": None}[kind]
+        if kind in ("Sphere", "Cylinder"):
+            assert prim.GetAttribute("rtc:radius").Get() == shape.geometry.radius
 
 
 def test_instance_world_matrices_match_the_xml(compiled):
@@ -76,7 +85,10 @@ def test_materials_carry_the_exact_course_parameters(compiled):
         if prim.IsA(UsdGeom.Gprim):
             material, _ = UsdShade.MaterialBindingAPI(prim).ComputeBoundMaterial()
             bound[str(prim.GetPath())] = material
-    for shader in scene.used_shaders():
+    # every shader something renders with (a prototype's default that every placement overrides is
+    # not written: each (prototype, shader) pair has its own prototype)
+    rendered = {id(s): s for s in [o.shader for o in scene.shapes] + [p.effective_shader for p in scene.placements]}
+    for shader in rendered.values():
         material = next(m for m in bound.values() if m and m.GetPrim().GetAttribute("rtc:model")
                         and _matches(m.GetPrim(), shader))
         assert material.GetPrim().GetAttribute("rtc:model").Get() == shader.model
@@ -93,15 +105,15 @@ def _matches(prim, shader) -> bool:
     if prim.GetAttribute("rtc:model").Get() != shader.model:
         return False
     for name, value in fields.items():
-        attr = prim.GetAttribute(f"rtc:{name}")
+        attr = prim.GetAttribute(f"rtc:{name}")       # declared by RtcCourseMaterialAPI: test authored
         if value is None:
-            if attr:
+            if attr.HasAuthoredValue():
                 return False
         elif not attr or not np.allclose(np.array(attr.Get(), float), value, rtol=0, atol=0):
             return False
     for name, texture in (("diffuseTexture", shader.diffuse_texture), ("specularTexture", shader.specular_texture)):
         attr = prim.GetAttribute(f"rtc:{name}")
-        if (texture is None) != (not attr):
+        if (texture is None) != (not attr.HasAuthoredValue()):
             return False
         if texture is not None and attr.Get().resolvedPath != str(texture.path):
             return False
@@ -129,7 +141,13 @@ def test_camera_and_render_settings(compiled):
     settings = UsdRender.Settings(stage.GetPrimAtPath(stage.GetMetadata("renderSettingsPrimPath")))
     assert tuple(settings.GetResolutionAttr().Get()) == (400, 300)
     assert settings.GetPrim().GetAttribute("rtc:samplesPerPixel").Get() == 9
-    _close(settings.GetPrim().GetAttribute("rtc:backgroundColor").Get(), scene.background, 1e-7)
+    # the background: a constant DomeLight other tools read as the world colour (none with an
+    # environment map, which replaces it)
+    dome = UsdLux.DomeLight(stage.GetPrimAtPath("/World/Lights/Background"))
+    assert bool(dome) == (scene.environment is None)
+    if dome:
+        _close(dome.GetColorAttr().Get(), scene.background, 1e-7)
+        assert dome.GetIntensityAttr().Get() == 1.0 and dome.GetPrim().GetAttribute("rtc:background").Get() is True
 
 
 def test_lights_keep_the_course_values_and_the_reference_irradiance(compiled):

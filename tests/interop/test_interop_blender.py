@@ -1,5 +1,5 @@
-"""Our compiled USD in Blender's USD importer (issue #6; optional: `pytest -m interop`, needs the
-`interop` extra, Blender as a Python module `bpy` 4.5).
+"""Our compiled USD in Blender's USD importer (issues #6 and 14; optional: `pytest -m interop`, needs
+Blender as a Python module, `bpy` 5, here or in the Python that RTC_BLENDER_PYTHON names).
 
 Blender imports in a child process (blender_import.py).  Against the composed stage read with
 usd-core, we check: the same number of mesh objects as gprims (instance proxies expanded) with the
@@ -11,10 +11,6 @@ Y-up stage to Z-up by rotating the root +90 degrees about X, so Blender's matrix
 """
 from __future__ import annotations
 
-import importlib.util
-import json
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,27 +20,11 @@ from pxr import Usd, UsdGeom, UsdLux, UsdShade
 
 from rtc.compiler.cli import compile_cmd
 
-from tests.interop.interop_helpers import REPO
+from tests.interop.blender_view import agrees, blender_import, blender_python, compare, world
+from tests.interop.interop_helpers import COURSE_CORPUS, REPO
 
 pytestmark = [pytest.mark.interop,
-              pytest.mark.skipif(importlib.util.find_spec('bpy') is None, reason="needs the 'interop' extra (bpy)")]
-HERE = Path(__file__).parent
-Y_UP_TO_Z_UP = np.array([[1, 0, 0, 0], [0, 0, -1, 0], [0, 1, 0, 0], [0, 0, 0, 1]], float)
-
-
-def blender_import(usd: Path, instancing: bool) -> dict:
-    r = subprocess.run([sys.executable, str(HERE / 'blender_import.py'), str(usd), '1' if instancing else '0'],
-                       capture_output=True, text=True, timeout=600)
-    lines = [ln for ln in r.stdout.splitlines() if ln.startswith('JSON')]
-    assert r.returncode == 0 and lines, r.stderr[-3000:]
-    data = json.loads(lines[0][4:])
-    assert data['result'] == ['FINISHED']
-    return data
-
-
-def world(prim) -> np.ndarray:
-    """USD world matrix in column-vector form, converted to Blender's Z-up world."""
-    return Y_UP_TO_Z_UP @ np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(Usd.TimeCode.Default())).T
+              pytest.mark.skipif(blender_python() is None, reason="needs Blender's bpy (or RTC_BLENDER_PYTHON)")]
 
 
 def match(expected: list[np.ndarray], found: list[np.ndarray], what: str):
@@ -87,11 +67,15 @@ def test_expanded_import_matches(compiled):
     objs = data['objects']
     meshes = [o for o in objs if o['type'] == 'MESH']
     match([world(p) for p in usd['gprims']], [o['matrix'] for o in meshes], 'meshes')
-    match([world(p) for p in usd['lights']], [o['matrix'] for o in objs if o['type'] == 'LIGHT'], 'lights')
+    # a constant DomeLight (the course background) becomes Blender's world, not a light object
+    lights = [p for p in usd['lights'] if not p.IsA(UsdLux.DomeLight)]
+    match([world(p) for p in lights], [o['matrix'] for o in objs if o['type'] == 'LIGHT'], 'lights')
     match([world(p) for p in usd['cameras']], [o['matrix'] for o in objs if o['type'] == 'CAMERA'], 'cameras')
-    # materials on Mesh gprims (Blender drops bindings on implicit shapes, see README.md ("Using rtc with other USD tools"))
+    # every gprim is a Mesh (course spheres, boxes and cylinders too: Blender drops bindings on
+    # implicit shapes), so every one comes in with its material
+    assert all(p.IsA(UsdGeom.Mesh) for p in usd['gprims'])
     want = sorted(UsdShade.MaterialBindingAPI(p).ComputeBoundMaterial()[0].GetPrim().GetName()
-                  for p in usd['gprims'] if p.IsA(UsdGeom.Mesh))
+                  for p in usd['gprims'])
     got = sorted(m for o in meshes for m in o['materials'] if m)
     assert got == want
 
@@ -105,3 +89,28 @@ def test_instanced_import_matches(compiled):
     assert len({o['instance_collection'] for o in empties}) == len(usd['prototypes'])
     in_scene = [o for o in objs if o['type'] == 'MESH' and 'Scene Collection' in o['collections']]
     match([world(p) for p in usd['plain_gprims']], [o['matrix'] for o in in_scene], 'plain meshes')
+
+
+def _compile(source: Path, out: Path) -> Path:
+    r = CliRunner().invoke(compile_cmd, [str(source), '-o', str(out)], catch_exceptions=False)
+    assert r.exit_code == 0, r.output
+    return out
+
+
+VIEW_SCENES = ['scenes/gallery.xml', 'scenes/ellipsoids.xml', 'scenes/shaders.xml', 'scenes/cylinder.xml',
+               'corpus:scenes_B/threeEggs.xml', 'corpus:scenes_A/mirrorScene01.xml']
+
+
+@pytest.mark.parametrize('scene', VIEW_SCENES)
+def test_blender_shows_each_gprims_bound_colour_and_the_background(scene, tmp_path):
+    """Per gprim (instance proxies included): Blender's base colour equals the diffuse colour of
+    the material usd-core says is bound (placements that override their prototype's shader
+    included); Blender's world colour equals the course background."""
+    source = COURSE_CORPUS / scene[7:] if scene.startswith('corpus:') else REPO / scene
+    if not source.is_file():
+        pytest.skip(f'{source} not found (set RTC_SHARED)')
+    view = compare(_compile(source, tmp_path / 'scene.usda'))
+    wrong = [row for row in view['gprims'] if not (row[3] and agrees(row[1], row[2]))]
+    assert view['gprims'] and wrong == []
+    want, got = view['background']
+    assert want is not None and agrees(want, got)

@@ -703,4 +703,114 @@ def test_malformed_attribute_values_skip_the_prim(tmp_path):
                     '    def Sphere "Ok" {\n    }\n}\n')
     desc = read_stage(path)
     assert [s.path for c in desc.containers for s in c.spheres] == ['/World/Ok']
-    assert sorted(s.split(':')[0] for s in desc.skipped) == ['/World/L', '/World/S']
+    assert sorted(desc.skipped) == ['/World/L: unreadable light (inputs:radius is a string, the schema says float)',
+                                    '/World/S: unreadable Sphere (radius is a string, the schema says double)']
+
+
+def _maya_cube(stage, path):
+    """A unit cube as six quads, written the way Arnold's Maya exports write their normals:
+    faceVarying, indexed, with an element size of 4 (one element per quad) that usd-core cannot
+    flatten against the 24 indices."""
+    points = [(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+    quads = [0, 1, 3, 2, 4, 6, 7, 5, 0, 4, 5, 1, 2, 3, 7, 6, 0, 2, 6, 4, 1, 5, 7, 3]
+    mesh = _tri_mesh(stage, path, points, [4] * 6, quads)
+    normals = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar('normals', Sdf.ValueTypeNames.Normal3fArray,
+                                                      UsdGeom.Tokens.faceVarying)
+    normals.Set([(-1, 0, 0), (1, 0, 0), (0, -1, 0), (0, 1, 0), (0, 0, -1), (0, 0, 1)])
+    normals.SetIndices(Vt.IntArray([f for f in range(6) for _ in range(4)]))
+    normals.SetElementSize(4)
+    return mesh
+
+
+def test_bad_primvars_cost_the_attribute_not_the_mesh(tmp_path):
+    """Meshes written by usd-core with primvars it cannot flatten or whose size does not match: each
+    mesh is kept with computed normals (area-weighted, unit length), one warning per attribute
+    names the prim and the attribute in words, and no message carries Python's error text."""
+    stage = _stage()
+    _maya_cube(stage, '/World/Maya')
+    wild = _tri_mesh(stage, '/World/Wild', [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2])
+    n = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('normals', Sdf.ValueTypeNames.Normal3fArray, 'faceVarying')
+    n.Set([(0, 0, 1)])
+    n.SetIndices(Vt.IntArray([0, 0, 9]))
+    st = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('st', Sdf.ValueTypeNames.TexCoord2fArray, 'faceVarying')
+    st.Set([(0, 0), (1, 0)])                              # 2 values for 3 corners
+    colour = UsdGeom.PrimvarsAPI(wild).CreatePrimvar('displayColor', Sdf.ValueTypeNames.Color3fArray)
+    colour.Set([(1, 0, 0)])
+    colour.SetIndices(Vt.IntArray([4]))
+    path = tmp_path / 'maya.usdc'
+    stage.GetRootLayer().Export(str(path))
+
+    desc = read_stage(path)
+    assert desc.skipped == []
+    meshes = {m.path: m for c in desc.containers for m in c.meshes}
+    assert sorted(meshes) == ['/World/Maya', '/World/Wild']
+    cube = meshes['/World/Maya']
+    assert cube.triangles.shape == (12, 3)
+    corners = cube.points[cube.triangles]                  # outward: away from the cube's centre
+    assert np.all(np.einsum('tck,tck->tc', cube.normals, corners - 0.5) > 0)
+    np.testing.assert_allclose(np.linalg.norm(cube.normals, axis=-1), 1.0, atol=1e-6)
+    np.testing.assert_allclose(np.abs(meshes['/World/Wild'].normals.reshape(-1, 3)), [[0, 0, 1]] * 3, atol=1e-7)
+    assert meshes['/World/Wild'].uvs is None
+    ours = [w for w in desc.warnings if not w.startswith('USD: ')]
+    assert ours[:4] == [
+        '/World/Maya: primvars:normals cannot be used (its 24 indices of elements of 4 values do not fit its 6 '
+        'values); normals computed from the faces instead',
+        '/World/Wild: primvars:normals cannot be used (its indices reach 9 but it has 1 value); normals '
+        'computed from the faces instead',
+        '/World/Wild: primvars:st: 2 values do not match interpolation "faceVarying"; texture coordinates '
+        'ignored',
+        '/World/Wild: primvars:displayColor cannot be used (its indices reach 4 but it has 1 value); grey '
+        'used instead']
+    for message in desc.warnings + desc.skipped:
+        assert 'object' not in message and 'len()' not in message and 'Error' not in message
+
+
+def test_mesh_with_rtc_implicit_reads_as_the_exact_shape():
+    """A Mesh carrying rtc:implicit (how the compiler writes course spheres, boxes and cylinders,
+    with a tessellation for other tools) gives the same records as the UsdGeom shape itself."""
+    stage = _stage()
+    made = {}
+    for kind, sizes in (('Sphere', {'radius': 0.7}), ('Cube', {'size': 1.0}),
+                        ('Cylinder', {'radius': 0.3, 'height': 2.5})):
+        shape = stage.DefinePrim(f'/World/{kind}', kind)
+        mesh = _tri_mesh(stage, f'/World/{kind}Mesh', [(0, 0, 0), (1, 0, 0), (0, 1, 0)], [3], [0, 1, 2])
+        mesh.GetPrim().CreateAttribute('rtc:implicit', Sdf.ValueTypeNames.Token, custom=True).Set(kind)
+        for name, value in sizes.items():
+            shape.GetAttribute(name).Set(value)
+            mesh.GetPrim().CreateAttribute(f'rtc:{name}', Sdf.ValueTypeNames.Double, custom=True).Set(value)
+        if kind == 'Cylinder':
+            shape.GetAttribute('axis').Set('Y')
+            mesh.GetPrim().CreateAttribute('rtc:axis', Sdf.ValueTypeNames.Token, custom=True).Set('Y')
+        for prim in (shape, mesh.GetPrim()):
+            UsdGeom.Xformable(prim).AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
+        made[kind] = (shape, mesh.GetPrim())
+    desc = read_stage(stage)
+    records = {r.path: r for c in desc.containers for r in (*c.meshes, *c.spheres)}
+    for kind, (shape, mesh) in made.items():
+        a, b = records[str(shape.GetPath())], records[str(mesh.GetPath())]
+        assert type(a) is type(b)
+        if kind == 'Sphere':
+            assert a.radius == b.radius == 0.7 and np.array_equal(a.matrix, b.matrix)
+        else:
+            assert np.array_equal(a.points, b.points) and np.array_equal(a.triangles, b.triangles)
+            assert np.array_equal(a.normals, b.normals)
+    assert np.ptp(records['/World/CylinderMesh'].points[:, 1]) == pytest.approx(2.5)   # along Y
+
+
+def test_course_background_dome_is_the_background_not_a_light():
+    """A constant DomeLight marked rtc:background is the colour of escaping rays (radiance
+    colour x intensity), not a light; an unmarked DomeLight stays a light."""
+    stage = _stage()
+    UsdGeom.Sphere.Define(stage, '/World/S')
+    UsdLux.SphereLight.Define(stage, '/World/L').CreateIntensityAttr(5.0)
+    dome = UsdLux.DomeLight.Define(stage, '/World/Background')
+    dome.CreateColorAttr((0.25, 0.5, 0.75))
+    dome.CreateIntensityAttr(2.0)
+    dome.GetPrim().CreateAttribute('rtc:background', Sdf.ValueTypeNames.Bool, custom=True).Set(True)
+    desc = read_stage(stage)
+    assert desc.background == (0.5, 1.0, 1.5)
+    assert [l.path for l in desc.lights] == ['/World/L']
+    dome.GetPrim().GetAttribute('rtc:background').Set(False)
+    desc = read_stage(stage)
+    assert desc.background == (0.0, 0.0, 0.0)
+    assert sorted(l.path for l in desc.lights) == ['/World/Background', '/World/L']
