@@ -368,6 +368,8 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: RenderOptions, cam
     if options.spp is not None:
         prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=True).Set(options.spp)
     prim.CreateAttribute("rtc:backgroundColor", _T.Color3f, custom=True).Set(Gf.Vec3f(*scene.background))
+    # course scenes are lit and shaded for the course's integrator (README, "Integrators")
+    prim.CreateAttribute("rtc:integrator", _T.Token, custom=True).Set("cook")
 
 
 # ----------------------------------------------------------------------------- bulk (Sdf level)

@@ -177,6 +177,9 @@ class RenderSettings:
     max_depth: Optional[int] = None
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
+    integrator: Optional[str] = None        # custom rtc:integrator: 'cook' (compiled course scenes) or 'path'
+                                            # (what the reader gives any other stage); None (descriptions
+                                            # built by hand) = cook
 
 
 @dataclass

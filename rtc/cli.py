@@ -95,14 +95,18 @@ class _StopFlag:
 @click.option('--filter', 'filter_', type=click.Choice(['box', 'tent', 'gaussian']), default='gaussian',
               show_default=True, help='Pixel reconstruction filter.')
 @click.option('--seed', type=int, default=0, show_default=True)
-@click.option('--max-depth', type=int, default=4, show_default=True, help='Specular bounces (course default 4).')
+@click.option('--max-depth', type=int, help='Bounces (default: the stage\'s, else 8 for path, 4 for cook, '
+              'the course\'s specular depth).')
+@click.option('--integrator', type=click.Choice(['path', 'cook']),
+              help='path: unbiased path tracing with MIS; cook: the course\'s distribution ray tracer '
+              '(default: cook for scenes compiled from course XML, path for any other USD).')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
 @click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
 @click.option('-q', '--quiet', is_flag=True)
-def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
+def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, integrator, threads, camera,
                checkpoint, resume, quiet):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
     from .renderer.host import film as film_mod
@@ -117,9 +121,11 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
         _fail(f'{output}: directory {out.parent} does not exist')
     ckpt_path = out.with_name(out.name + '.ckpt.npz')
     opts = RenderOptions(width=width, height=height, spp=spp, sampler=sampler, filter=filter_, seed=seed,
-                         max_depth=max_depth, threads=threads)
+                         max_depth=max_depth, integrator=integrator, threads=threads)
     try:        # absurd command-line values fail before the scene is read (sizes from the file: below)
-        RenderOptions(**{**opts.__dict__, 'width': width or 1, 'height': height or 1, 'spp': spp or 1}).validate()
+        RenderOptions(**{**opts.__dict__, 'width': width or 1, 'height': height or 1, 'spp': spp or 1,
+                         'max_depth': 0 if max_depth is None else max_depth,
+                         'integrator': integrator or 'path'}).validate()
     except RenderError as e:
         _fail(str(e))
     if checkpoint is not None and not 0 < checkpoint < float('inf'):
@@ -138,13 +144,13 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
         except film_mod.FilmError as e:
             _fail(str(e))
         saved = film.meta
-        for k in ('sampler', 'filter', 'seed', 'max_depth', 'spp', 'width', 'height'):
+        for k in ('sampler', 'filter', 'seed', 'max_depth', 'integrator', 'spp', 'width', 'height'):
             if k in saved and saved[k] != getattr(resolved, k):
                 _fail(f'--resume: checkpoint was rendered with {k}={saved[k]}, not {getattr(resolved, k)}')
     stop = _StopFlag()
     stop.install()
     last_ckpt = [time.monotonic()]
-    settings = {k: getattr(resolved, k) for k in ('sampler', 'filter', 'seed', 'max_depth', 'spp', 'width', 'height')}
+    settings = {k: getattr(resolved, k) for k in ('sampler', 'filter', 'seed', 'max_depth', 'integrator', 'spp', 'width', 'height')}
 
     def save_checkpoint(res):
         res.film.meta.update(settings)

@@ -42,7 +42,9 @@ def _fail(message: str):
 @click.option('--height', type=int, help='Image height (default: keeps the settings aspect).')
 @click.option('--filter', 'filter_', type=click.Choice(['box', 'tent', 'gaussian']), default='gaussian',
               show_default=True)
-@click.option('--max-depth', type=int, default=4, show_default=True)
+@click.option('--max-depth', type=int, help='Bounces (default: 8 for path, 4 for cook).')
+@click.option('--integrator', type=click.Choice(['path', 'cook']),
+              help='Default: cook for scenes compiled from course XML, path for any other USD.')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--metric', type=click.Choice(['rmse', 'relmse']), default='rmse', show_default=True,
               help='Error plotted and fitted (both are always in the CSV).')
@@ -50,7 +52,8 @@ def _fail(message: str):
               help='Fit slopes over points with spp >= this (all points if fewer than two qualify).')
 @click.option('-q', '--quiet', is_flag=True)
 def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, reference_spp, reference_seeds,
-                 reference_sampler, no_cache, width, height, filter_, max_depth, threads, metric, fit_from, quiet):
+                 reference_sampler, no_cache, width, height, filter_, max_depth, integrator, threads, metric, fit_from,
+                 quiet):
     """Error (RMSE and relMSE against a reference) of SCENE rendered at 1, 2, 4, ... --max-spp samples
     per pixel with each sampler, against spp and against wall-clock seconds."""
     from .renderer.host import converge as C
@@ -74,7 +77,8 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
 
     desc = load_scene(scene, width=width, height=height, quiet=quiet)
     try:
-        o = RenderOptions(width=width, height=height, filter=filter_, max_depth=max_depth).resolved(desc.settings)
+        o = RenderOptions(width=width, height=height, filter=filter_, max_depth=max_depth,
+                          integrator=integrator).resolved(desc.settings)
     except RenderError as e:
         _fail(str(e))
     ref_img, cache = None, None
@@ -87,7 +91,7 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
             _fail(f'{reference} is {ref_img.shape[1]}x{ref_img.shape[0]}, the render is {o.width}x{o.height}')
     elif not no_cache:
         key = C.reference_key(Path(scene).read_bytes(), o.width, o.height, ref_spp, reference_seeds,
-                              reference_sampler, filter_, max_depth)
+                              reference_sampler, filter_, o.max_depth, o.integrator)
         cache = C.reference_cache_path(scene, key)
 
     def on_point(p):
@@ -95,7 +99,8 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
             f'relMSE {p.relmse:.4e}')
 
     points, _ = C.converge(desc, samplers=names, max_spp=max_spp, min_spp=min_spp, seeds=seeds,
-                           width=o.width, height=o.height, max_depth=max_depth, filter=filter_, threads=threads,
+                           width=o.width, height=o.height, max_depth=o.max_depth, integrator=o.integrator, filter=filter_,
+                           threads=threads,
                            reference=ref_img, reference_spp=ref_spp, reference_chunks=reference_seeds,
                            reference_sampler=reference_sampler, reference_cache=cache, on_point=on_point, log=log)
     summary = C.summarize(points)

@@ -23,6 +23,11 @@ from ..kernel.filters import FILTER_NAMES
 from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET, TILE,
                          render_pass)
 from ..kernel.samplers import SAMPLER_NAMES
+from ..kernel.path import STRATEGIES, render_pass_path
+from .light_selection import path_lights
+
+INTEGRATORS = ('path', 'cook')
+DEFAULT_DEPTH = {'path': 8, 'cook': 4}
 
 MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
 MAX_SPP = 1 << 20
@@ -41,7 +46,9 @@ class RenderOptions:
     sampler: str = 'sobol'
     filter: str = 'gaussian'
     seed: int = 0
-    max_depth: int = 4
+    max_depth: int | None = None      # None: the stage's, else DEFAULT_DEPTH of the integrator
+    integrator: str | None = None     # None: the stage's rtc:integrator, else 'path'
+    strategy: str = 'mis'             # path only: 'mis' | 'nee' | 'bsdf' (tests and benchmarks)
     threads: int | None = None
     pass_seconds: float = 1.0
     depth_of_field: bool = True
@@ -53,9 +60,12 @@ class RenderOptions:
         if self.width and not self.height and settings.width and settings.height:
             h = max(1, round(self.width * settings.height / settings.width))
         spp = self.spp or settings.samples_per_pixel or 16
-        max_depth = self.max_depth if self.max_depth is not None else (settings.max_depth or 4)
+        integrator = self.integrator or (settings.integrator if settings.integrator in INTEGRATORS else
+                                         'cook' if settings.integrator is None else 'path')
+        max_depth = self.max_depth if self.max_depth is not None else (settings.max_depth or
+                                                                       DEFAULT_DEPTH.get(integrator, 4))
         o = RenderOptions(**{**self.__dict__, 'width': int(w), 'height': int(h), 'spp': int(spp),
-                             'max_depth': int(max_depth)})
+                             'max_depth': int(max_depth), 'integrator': integrator})
         o.validate()
         return o
 
@@ -69,6 +79,10 @@ class RenderOptions:
             raise RenderError(f"unknown sampler '{self.sampler}' (choose from {', '.join(SAMPLER_NAMES)})")
         if self.filter not in FILTER_NAMES:
             raise RenderError(f"unknown filter '{self.filter}' (choose from {', '.join(FILTER_NAMES)})")
+        if self.integrator not in INTEGRATORS:
+            raise RenderError(f"unknown integrator '{self.integrator}' (choose from {', '.join(INTEGRATORS)})")
+        if self.strategy not in STRATEGIES:
+            raise RenderError(f"unknown light strategy '{self.strategy}' (choose from {', '.join(STRATEGIES)})")
         if not 0 <= self.max_depth <= 64:
             raise RenderError(f'max depth {self.max_depth} is out of range (0..64)')
         if not 0 <= self.seed < 2 ** 32:
@@ -111,7 +125,7 @@ class RenderResult:
         s = self.stats
         return {'rtc:spp': self.film.spp, 'rtc:sampler': self.options.sampler, 'rtc:filter': self.options.filter,
                 'rtc:seed': self.options.seed, 'rtc:seconds': round(s.seconds, 4), 'rtc:rays': s.rays,
-                'rtc:maxDepth': self.options.max_depth, 'rtc:interrupted': int(self.interrupted)}
+                'rtc:maxDepth': self.options.max_depth, 'rtc:integrator': self.options.integrator, 'rtc:interrupted': int(self.interrupted)}
 
 
 class Renderer:
@@ -124,6 +138,28 @@ class Renderer:
         self.desc = desc
         self.built = build(desc, threads=threads)
         self.build_seconds = _time.perf_counter() - t0
+        self._lights = None
+
+    def path_lights(self):
+        """The path integrator's light record (built on its first use: cook renders never build it)."""
+        if self._lights is None:
+            d = self.built.data
+            self._lights = path_lights(self.desc, d.li_f, self.built.top.bounds())
+        return self._lights
+
+    def _pass(self, o, ctab, use_lens, use_time, s0, s1, film, counters, ray_record):
+        """Add samples [s0, s1) of every pixel to the film's sum with the integrator of options `o`."""
+        if o.integrator == 'path':
+            if ray_record is not None:
+                raise RenderError('ray recording is available for the cook integrator only')
+            render_pass_path(self.built.data, self.path_lights(), self.built.handle, ctab,
+                             (o.width, o.height, s0, s1, o.spp),
+                             (SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
+                              STRATEGIES[o.strategy]), film.sum, counters)
+            return
+        render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s0, s1, o.spp,
+                    SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
+                    film.sum, counters, ray_record)
 
     def close(self):
         self.built.close()
@@ -159,16 +195,13 @@ class Renderer:
             raise RenderError(f'checkpoint is {film.width}x{film.height}, render is {o.width}x{o.height}')
         ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
         counters = np.zeros((ntiles, N_COUNTERS), np.int64)
-        sampler = SAMPLER_NAMES[o.sampler]
-        filt = FILTER_NAMES[o.filter]
         stats = RenderStats(build_seconds=self.build_seconds)
         result = RenderResult(image=film.image(), film=film, options=o, stats=stats)
         s = film.spp
         # an empty pass (no samples) loads the cached kernel - or compiles it on the very first run -
         # so that the render's time and ray rate measure rendering only
         t0 = _time.perf_counter()
-        render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s, o.spp,
-                    sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters, ray_record)
+        self._pass(o, ctab, use_lens, use_time, s, s, film, counters, ray_record)
         stats.kernel_seconds = _time.perf_counter() - t0
         t_start = _time.perf_counter()
         step = 1
@@ -178,8 +211,7 @@ class Renderer:
                 break
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
-            render_pass(self.built.data, self.built.handle, ctab, o.width, o.height, s, s1, o.spp,
-                        sampler, filt, o.seed, o.max_depth, use_lens, use_time, film.sum, counters, ray_record)
+            self._pass(o, ctab, use_lens, use_time, s, s1, film, counters, ray_record)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))

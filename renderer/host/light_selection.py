@@ -1,0 +1,76 @@
+"""The lights as the path integrator samples them: one light per shading point, chosen by power
+from an alias table (Walker 1977; Vose 1991), so the cost of a sample does not grow with the number
+of lights; the list of light shapes that BSDF rays can meet; the dome's sampling tables.
+
+Power estimates (only their ratios matter, and any positive choice keeps the estimator unbiased):
+point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
+(texture mean) with R the radius of the scene's bounds, luminances of the RGB values.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .. import description as D
+from .dome_sampling import dome_tables
+
+PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
+                                       'dome_cdf'])
+_LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(prob, alias, pmf) of Vose's alias method for non-negative weights (uniform if all are 0):
+    draw i = floor(u n), keep it if frac(u n) < prob[i], else take alias[i]."""
+    w = np.asarray(weights, np.float64)
+    n = len(w)
+    pmf = w / w.sum() if w.sum() > 0 else np.full(n, 1.0 / n)
+    scaled = pmf * n
+    prob = np.ones(n)
+    alias = np.arange(n, dtype=np.int64)
+    small = [i for i in range(n) if scaled[i] < 1.0]
+    large = [i for i in range(n) if scaled[i] >= 1.0]
+    while small and large:
+        s, g = small.pop(), large.pop()
+        prob[s] = scaled[s]
+        alias[s] = g
+        scaled[g] -= 1.0 - scaled[s]
+        (small if scaled[g] < 1.0 else large).append(g)
+    return prob, alias, pmf
+
+
+def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
+    from .build import LF_AREA, LF_RADIUS
+    out = np.zeros(max(len(desc.lights), 1))
+    for k, l in enumerate(desc.lights):
+        y = float(np.dot(_LUM, l.radiance))
+        if l.type == D.POINT:
+            out[k] = 4 * np.pi * y
+        elif l.type in (D.RECT, D.DISK):
+            out[k] = np.pi * li_f[k, LF_AREA] * y
+        elif l.type == D.SPHERE:
+            out[k] = 4 * np.pi ** 2 * li_f[k, LF_RADIUS] ** 2 * y
+        elif l.type == D.DISTANT:
+            out[k] = np.pi * radius ** 2 * y
+        elif l.type == D.DOME:
+            out[k] = 4 * np.pi ** 2 * radius ** 2 * y * dome_mean.get(k, 1.0)
+    return np.where(np.isfinite(out) & (out > 0), out, 0.0)
+
+
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray) -> PathLights:
+    """The PathLights record of a built scene (li_f: the light table; bounds (2, 3) of the scene)."""
+    lo, hi = np.asarray(bounds, np.float64)
+    ext = hi - lo
+    radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
+    dome_i, dome_cdf, dome_mean = dome_tables(desc)
+    prob, alias, pmf = alias_table(light_power(desc, li_f, max(radius, 1e-30), dome_mean))
+    types = [l.type for l in desc.lights]
+    shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE)]
+    infinite = [k for k, l in enumerate(desc.lights)
+                if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
+    if not desc.lights:                      # no light at all: nothing is ever chosen (pmf unused)
+        pmf[:] = 0.0
+    return PathLights(prob=prob, alias=alias, pmf=pmf, shapes=np.array(shapes, np.int64),
+                      infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
+                      dome_i=dome_i, dome_cdf=dome_cdf)
