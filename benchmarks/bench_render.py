@@ -48,6 +48,7 @@ from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SH
                                  R_OX, R_TFAR, R_TIME, R_TNEAR, N_COUNTERS, TILE, new_ray_record, render_pass)
 from rtc.renderer.kernel.samplers import SAMPLER_NAMES  # noqa: E402
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
+from rtc.renderer.options import resolve  # noqa: E402
 from rtc.renderer.kernel.trace import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402
 
 KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
@@ -69,7 +70,7 @@ def load(path: str):
 def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     """The rays of samples [0, spp) of every pixel, traced as one pass (so that the packets hold 16
     samples of one pixel, as in a long render's passes), by kind, each as float32 arrays in traced order."""
-    o = opts.resolved(r.desc.settings)
+    o = resolve(opts, r.desc.settings)
     rec = new_ray_record(o.width, o.height, cap)
     ctab, use_lens, use_time = r.camera(o)
     ntiles = ((o.width + TILE - 1) // TILE) * ((o.height + TILE - 1) // TILE)
@@ -113,7 +114,8 @@ def bench_scene(path: str, a) -> dict:
     row['load_s'] = time.perf_counter() - t0
     row['rss_load_mb'] = peak_rss_mb()
     opts = RenderOptions(width=a.width, height=a.height, spp=a.spp, seed=a.seed, sampler=a.sampler,
-                         max_depth=a.max_depth).resolved(desc.settings)
+                         max_depth=a.max_depth)
+    opts = resolve(opts, desc.settings)
     t0 = time.perf_counter()
     r = Renderer(desc, threads=a.threads)
     row['build_s'] = time.perf_counter() - t0

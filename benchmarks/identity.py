@@ -9,12 +9,15 @@ the pixels are compared bit for bit.  REV is exported with `git archive` to a te
 from there (PYTHONPATH names that folder, so its own packages are imported, whatever their layout);
 its images are cached under `benchmarks/.identity/REV/` so that later runs render only the working tree.
 Exit status 0 when every image is identical, 1 otherwise.
+`--snapshot` renders a copy of the working tree taken at start (laid out as the installed `rtc`
+package), so that the sources can be edited while the comparison runs.
 """
 from __future__ import annotations
 
 import argparse
 import itertools
 import os
+import shutil
 import subprocess
 import sys
 import tarfile
@@ -64,6 +67,17 @@ def export(rev: str, dest: Path) -> Path:
     return tree
 
 
+def snapshot(dest: Path) -> Path:
+    """A copy of the working tree's packages laid out as installed: rtc/, rtc/compiler, rtc/renderer."""
+    ignore = shutil.ignore_patterns('__pycache__', '*.pyc')
+    shutil.copytree(ROOT / 'rtc', dest / 'rtc', ignore=ignore)
+    shutil.copytree(ROOT / 'compiler', dest / 'rtc' / 'compiler', ignore=ignore)
+    shutil.copytree(ROOT / 'renderer', dest / 'rtc' / 'renderer', ignore=ignore)
+    if (ROOT / 'schemas').is_dir():             # compiler/schema.py finds them next to its package
+        shutil.copytree(ROOT / 'schemas', dest / 'rtc' / 'schemas')
+    return dest
+
+
 def render(tree: Path | None, scene: Path, sampler: str, threads: int, out: Path, size: int, spp: int):
     env = dict(os.environ)
     if tree is not None:
@@ -93,6 +107,7 @@ def main() -> int:
     ap.add_argument('--size', type=int, default=64, help='image width (height keeps the aspect)')
     ap.add_argument('--spp', type=int, default=8)
     ap.add_argument('--rev-only', action='store_true', help='only render (and cache) the images of REV')
+    ap.add_argument('--snapshot', action='store_true', help='render a copy of the working tree taken at start')
     a = ap.parse_args()
     sha = subprocess.run(['git', '-C', str(ROOT), 'rev-parse', '--short', a.rev], check=True,
                          capture_output=True, text=True).stdout.strip()
@@ -101,6 +116,7 @@ def main() -> int:
     samplers = SAMPLERS[-2:] if a.quick else SAMPLERS
     bad = n = 0
     with tempfile.TemporaryDirectory() as tmp:
+        work = snapshot(Path(tmp) / 'snapshot') if a.snapshot else None
         for scene, sampler, threads in itertools.product(scenes(a.quick), samplers, THREADS):
             name = f'{scene.stem}-{sampler}-{threads}t-{a.size}-{a.spp}.exr'
             old = cache / name
@@ -109,7 +125,7 @@ def main() -> int:
             if a.rev_only:
                 continue
             new = Path(tmp) / name
-            render(None, scene, sampler, threads, new, a.size, a.spp)
+            render(work, scene, sampler, threads, new, a.size, a.spp)
             po, pn = pixels(old), pixels(new)
             same = po.shape == pn.shape and np.array_equal(po.view(np.uint32), pn.view(np.uint32))
             n += 1

@@ -21,22 +21,8 @@ import numpy as np
 
 from .. import description as D
 from .embree import Device, InstanceGroup
-
-# -- material table layout (float32 columns of SceneData.mat_f)
-MF_KD, MF_KS, MF_EXP, MF_MIRROR, MF_ROUGH, MF_IOR, MF_ATTEN, MF_EMIT, MF_METAL, MF_OPACITY, MF_SPECWF, \
-    MF_CLEARCOAT, MF_CC_ROUGH = 0, 3, 6, 7, 8, 9, 10, 13, 16, 17, 18, 19, 20
-MAT_F_COLS = 21
-# -- material int table (SceneData.mat_i)
-MI_MODEL, MI_DIFFUSE_TEX, MI_SPECULAR_TEX = 0, 1, 2
-MAT_I_COLS = 3
-# -- gprim flags
-GP_HAS_NORMALS, GP_HAS_UVS = 1, 2
-GP_MESH, GP_SPHERE = 0, 1
-# -- light table (SceneData.li_f) columns
-LF_M, LF_RAD, LF_RADIUS, LF_W, LF_H, LF_COS_MAX, LF_AREA = 0, 12, 15, 16, 17, 18, 19
-LI_F_COLS = 20
-# -- texture table (SceneData.tex_i) columns: offset, width, height, channels, wrap_s, wrap_t
-WRAP = {'repeat': 0, 'clamp': 1, 'mirror': 2, 'black': 3}
+from ..kernel.tables import (GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
+                             TEXTURE_F, TEXTURE_I, WRAP)
 
 SceneData = namedtuple('SceneData', [
     'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off',
@@ -177,38 +163,29 @@ def _material_tables(materials: list[D.Material]):
     """(mat_i, mat_f); the last row is the default material for unbound gprims."""
     mats = [*materials, D.Material(path='<default>', model=D.PREVIEW_SURFACE, diffuse=(0.18, 0.18, 0.18),
                                    roughness=0.5, use_specular_workflow=True)]
-    mat_i = np.zeros((len(mats), MAT_I_COLS), np.int32)
-    mat_f = np.zeros((len(mats), MAT_F_COLS), np.float32)
+    mat_i = np.zeros((len(mats), MATERIAL_I.width), np.int32)
+    mat_f = np.zeros((len(mats), MATERIAL_F.width), np.float32)
     for k, m in enumerate(mats):
-        mat_i[k] = (m.model, m.diffuse_texture, m.specular_texture)
-        mat_f[k, MF_KD:MF_KD + 3] = m.diffuse
-        mat_f[k, MF_KS:MF_KS + 3] = m.specular
-        mat_f[k, MF_EXP] = m.exponent
-        mat_f[k, MF_MIRROR] = m.mirror_coef
-        mat_f[k, MF_ROUGH] = m.roughness
-        mat_f[k, MF_IOR] = m.ior
-        mat_f[k, MF_ATTEN:MF_ATTEN + 3] = m.attenuation
-        mat_f[k, MF_EMIT:MF_EMIT + 3] = m.emission
-        mat_f[k, MF_METAL] = m.metallic
-        mat_f[k, MF_OPACITY] = m.opacity
-        mat_f[k, MF_SPECWF] = 1.0 if m.use_specular_workflow else 0.0
-        mat_f[k, MF_CLEARCOAT] = m.clearcoat
-        mat_f[k, MF_CC_ROUGH] = m.clearcoat_roughness
+        MATERIAL_I.write(mat_i[k], MODEL=m.model, DIFFUSE_TEX=m.diffuse_texture, SPECULAR_TEX=m.specular_texture)
+        MATERIAL_F.write(mat_f[k], KD=m.diffuse, KS=m.specular, EXP=m.exponent, MIRROR=m.mirror_coef,
+                         ROUGH=m.roughness, IOR=m.ior, ATTEN=m.attenuation, EMIT=m.emission, METAL=m.metallic,
+                         OPACITY=m.opacity, SPECWF=1.0 if m.use_specular_workflow else 0.0,
+                         CLEARCOAT=m.clearcoat, CC_ROUGH=m.clearcoat_roughness)
     return mat_i, mat_f
 
 
 def _texture_tables(textures: list[D.Texture]):
-    tex_i = np.zeros((max(len(textures), 1), 6), np.int64)
-    tex_f = np.zeros((max(len(textures), 1), 8), np.float32)
+    tex_i = np.zeros((max(len(textures), 1), TEXTURE_I.width), np.int64)
+    tex_f = np.zeros((max(len(textures), 1), TEXTURE_F.width), np.float32)
     chunks, off = [], 0
     for k, t in enumerate(textures):
         px = np.ascontiguousarray(t.pixels, np.float32)
         if px.ndim == 2:
             px = px[:, :, None]
         h, w, c = px.shape
-        tex_i[k] = (off, w, h, c, WRAP.get(t.wrap_s, 0), WRAP.get(t.wrap_t, 0))
-        tex_f[k, :4] = t.scale
-        tex_f[k, 4:] = t.bias
+        TEXTURE_I.write(tex_i[k], OFFSET=off, WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(t.wrap_s, 0),
+                        WRAP_T=WRAP.get(t.wrap_t, 0))
+        TEXTURE_F.write(tex_f[k], SCALE=t.scale, BIAS=t.bias)
         chunks.append(px.ravel())
         off += px.size
     return tex_i, tex_f, (np.concatenate(chunks) if chunks else np.zeros(1, np.float32))
@@ -217,29 +194,25 @@ def _texture_tables(textures: list[D.Texture]):
 def _light_tables(lights: list[D.Light], origin: np.ndarray):
     nl = len(lights)
     li_type = np.full(max(nl, 1), -1, np.int32)
-    li_f = np.zeros((max(nl, 1), LI_F_COLS), np.float64)
+    li_f = np.zeros((max(nl, 1), LIGHT_F.width), np.float64)
     li_tex = np.full(max(nl, 1), -1, np.int32)
     for k, l in enumerate(lights):
         m = np.array(l.matrix, np.float64)
         m3 = m[:3, :].copy()
         m3[:, 3] -= origin
         li_type[k] = l.type
-        li_f[k, LF_M:LF_M + 12] = m3.ravel()
-        li_f[k, LF_RAD:LF_RAD + 3] = l.radiance
-        li_f[k, LF_RADIUS] = l.radius
-        li_f[k, LF_W] = l.width
-        li_f[k, LF_H] = l.height
-        li_f[k, LF_COS_MAX] = np.cos(np.radians(0.5 * l.angle))
+        radius, area = l.radius, 0.0
         if l.type == D.RECT:
-            li_f[k, LF_AREA] = np.linalg.norm(np.cross(m[:3, 0] * l.width, m[:3, 1] * l.height))
+            area = np.linalg.norm(np.cross(m[:3, 0] * l.width, m[:3, 1] * l.height))
         elif l.type == D.DISK:
-            li_f[k, LF_AREA] = np.pi * np.linalg.norm(np.cross(m[:3, 0] * l.radius, m[:3, 1] * l.radius))
+            area = np.pi * np.linalg.norm(np.cross(m[:3, 0] * l.radius, m[:3, 1] * l.radius))
         elif l.type == D.SPHERE:
-            r = l.radius * np.cbrt(abs(np.linalg.det(m[:3, :3])))
-            li_f[k, LF_RADIUS] = r
-            li_f[k, LF_AREA] = 4 * np.pi * r * r
+            radius = l.radius * np.cbrt(abs(np.linalg.det(m[:3, :3])))
+            area = 4 * np.pi * radius * radius
         elif l.type == D.DOME:
             li_tex[k] = l.texture
+        LIGHT_F.write(li_f[k], M=m3.ravel(), RAD=l.radiance, RADIUS=radius, W=l.width, H=l.height,
+                      COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area)
     return li_type, li_f, li_tex
 
 

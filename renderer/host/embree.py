@@ -114,6 +114,20 @@ rtcGetGeometry = _declare("rtcGetGeometry", _vp, [_vp, _u32])
 rtcGetGeometryTransformEx = _declare("rtcGetGeometryTransformEx", None, [_vp, _u32, _f32, _i32, _vp])
 
 
+def _register_kernel_symbols() -> None:
+    """Give the numba kernels the Embree entry points they declare by name (`kernel/trace.py`:
+    SYMBOL_PREFIX + name): LLVM resolves those names when it compiles or links a (cached) kernel,
+    so this runs at import, before any kernel can be called."""
+    import llvmlite.binding as llvm
+
+    from ..kernel.trace import EXTERNAL_FUNCTIONS, SYMBOL_PREFIX
+    for name in EXTERNAL_FUNCTIONS:
+        llvm.add_symbol(SYMBOL_PREFIX + name, ctypes.cast(getattr(LIB, name), ctypes.c_void_p).value)
+
+
+_register_kernel_symbols()
+
+
 class EmbreeError(RuntimeError):
     """An error reported by Embree (through the device error callback or rtcGetDeviceError)."""
 

@@ -13,6 +13,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
+from ..kernel.tables import LF_AREA, LF_RADIUS
 from .dome_sampling import dome_tables
 
 PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
@@ -41,7 +42,6 @@ def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray
 
 
 def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
-    from .build import LF_AREA, LF_RADIUS
     out = np.zeros(max(len(desc.lights), 1))
     for k, l in enumerate(desc.lights):
         y = float(np.dot(_LUM, l.radiance))

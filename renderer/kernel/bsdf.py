@@ -29,9 +29,7 @@ from collections import namedtuple
 import numba as nb
 
 from .. import description as D
-from .vecmath import SHADING_JIT
-
-_JIT = dict(SHADING_JIT, inline='always')
+from .jit import SHADING_INLINE_JIT as _JIT
 
 Bsdf = namedtuple('Bsdf', ['kd', 'coupled', 'cool', 'gooch', 'f0', 'f90', 'alpha', 'cc', 'cc_alpha',
                            'ks', 'exp', 'mirror', 'eta'])

@@ -14,39 +14,27 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
+from .jit import INLINE_JIT, JIT
+from .tables import (C_FAR, C_FOCUS, C_HALF_H, C_HALF_W, C_LENS, C_M, C_M1, C_MOVING, C_NEAR,  # noqa: F401
+                     C_OFF_X, C_OFF_Y, C_ORTHO, CAM_COLS, CAMERA)
 from .vecmath import normalize
 
-_JIT = dict(cache=True, nogil=True, inline='always')
-
-# table layout
-C_M = 0            # 12: camera-to-world 3x4 at shutter open (camera-relative world: translation 0)
-C_M1 = 12          # 12: camera-to-world at shutter close (== C_M when the camera does not move)
-C_ORTHO = 24
-C_HALF_W = 25      # half film width / focal length (perspective) or half width (orthographic)
-C_HALF_H = 26
-C_OFF_X = 27
-C_OFF_Y = 28
-C_LENS = 29
-C_FOCUS = 30
-C_NEAR = 31
-C_FAR = 32
-C_MOVING = 33
-CAM_COLS = 34
+# the table's columns (C_*) are declared in tables.CAMERA
 
 
 def camera_table(cam: D.Camera, width: int, height: int, origin: np.ndarray, *,
                  depth_of_field: bool = True, motion_blur: bool = True) -> np.ndarray:
     """Pack `cam` for an image of width x height pixels, relative to world position `origin`."""
-    t = np.zeros(CAM_COLS, np.float64)
+    t = np.zeros(CAMERA.width, np.float64)
     m0 = np.array(cam.matrix, np.float64)
     m1 = m0 if (cam.motion is None or not motion_blur) else np.array(cam.motion[-1], np.float64)
     if cam.motion is not None and motion_blur:
         m0 = np.array(cam.motion[0], np.float64)
-    for k, m in ((C_M, m0), (C_M1, m1)):
+    rel = []
+    for m in (m0, m1):
         mm = m[:3, :].copy()
         mm[:, 3] -= origin
-        t[k:k + 12] = mm.ravel()
-    t[C_MOVING] = 0.0 if np.array_equal(m0, m1) else 1.0
+        rel.append(mm.ravel())
     hap, vap = float(cam.horizontal_aperture), float(cam.vertical_aperture)
     if hap <= 0 or vap <= 0:
         hap, vap = 2.0955, 1.5291
@@ -56,22 +44,18 @@ def camera_table(cam: D.Camera, width: int, height: int, origin: np.ndarray, *,
     else:
         vap = hap / image_aspect
     ortho = cam.projection == 'orthographic'
-    t[C_ORTHO] = 1.0 if ortho else 0.0
     f = max(float(cam.focal_length), 1e-12)
     scale = 1.0 if ortho else 1.0 / f
-    t[C_HALF_W] = 0.5 * hap * scale
-    t[C_HALF_H] = 0.5 * vap * scale
-    t[C_OFF_X] = cam.horizontal_aperture_offset * scale
-    t[C_OFF_Y] = cam.vertical_aperture_offset * scale
     use_lens = depth_of_field and cam.lens_radius > 0 and not ortho and cam.focus_distance > 0
-    t[C_LENS] = cam.lens_radius if use_lens else 0.0
-    t[C_FOCUS] = cam.focus_distance if use_lens else 1.0
-    t[C_NEAR] = max(cam.clip_near, 0.0)
-    t[C_FAR] = cam.clip_far if math.isfinite(cam.clip_far) else np.inf
+    CAMERA.write(t, M=rel[0], M1=rel[1], MOVING=0.0 if np.array_equal(m0, m1) else 1.0,
+                 ORTHO=1.0 if ortho else 0.0, HALF_W=0.5 * hap * scale, HALF_H=0.5 * vap * scale,
+                 OFF_X=cam.horizontal_aperture_offset * scale, OFF_Y=cam.vertical_aperture_offset * scale,
+                 LENS=cam.lens_radius if use_lens else 0.0, FOCUS=cam.focus_distance if use_lens else 1.0,
+                 NEAR=max(cam.clip_near, 0.0), FAR=cam.clip_far if math.isfinite(cam.clip_far) else np.inf)
     return t
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _sincos_quarter(x):
     """(sin x, cos x) for |x| <= pi/4: Taylor polynomials to x^15 / x^16 (truncation < 1e-16),
     a few multiply-adds instead of two libm calls."""
@@ -83,7 +67,7 @@ def _sincos_quarter(x):
     return s, c
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _concentric_disk(u, v):
     """Shirley-Chiu concentric map of [0,1)^2 onto the unit disk (keeps stratification).  The
     angle is pi/4 * (b/a) or pi/2 - pi/4 * (a/b): one quarter-range sine/cosine either way."""
@@ -98,7 +82,7 @@ def _concentric_disk(u, v):
     return b * sn, b * cs
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def generate_ray(cam, fx, fy, lens_u, lens_v, time):
     """Ray for film position (fx, fy) in [0,1]^2 (x right, y down, as image pixels), a lens sample and
     a shutter time in [0,1].  Returns origin and unit direction in camera-relative world space.
@@ -134,12 +118,12 @@ def generate_ray(cam, fx, fy, lens_u, lens_v, time):
     return wo, wd
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _m(cam, i, a):
     return (1.0 - a) * cam[C_M + i] + a * cam[C_M1 + i]
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _concentric_disk_select(u, v):
     """`_concentric_disk` without branches (selects only, the same values), for vectorised loops."""
     a = 2.0 * u - 1.0
@@ -154,7 +138,7 @@ def _concentric_disk_select(u, v):
     return lx, ly
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _to_world(cam, a, o0, o1, o2, d0, d1, d2):
     """`generate_ray`'s camera-to-world step with the matrix entries read from the table once per
     packet (locals, so that stores to the output arrays do not force reloads)."""
@@ -167,7 +151,7 @@ def _to_world(cam, a, o0, o1, o2, d0, d1, d2):
     return wo, wd
 
 
-@nb.njit(cache=True, nogil=True, error_model='numpy')
+@nb.njit(**JIT, error_model='numpy')
 def camera_rays(cam, n, fx, fy, lens_u, lens_v, time, o, d):
     """`generate_ray` for the lanes j < n of a packet: film positions fx[j], fy[j], lens samples
     lens_u[j], lens_v[j], shutter times time[j] -> origins o[:, j] and unit directions d[:, j]

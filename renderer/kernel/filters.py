@@ -23,6 +23,8 @@ import math
 import numpy as np
 from numba import njit
 
+from .jit import JIT
+
 BOX, TENT, GAUSSIAN = 0, 1, 2
 FILTER_NAMES = {'box': BOX, 'tent': TENT, 'gaussian': GAUSSIAN}
 FILTER_RADIUS = {BOX: 0.5, TENT: 1.0, GAUSSIAN: 1.5}
@@ -36,13 +38,13 @@ _PDF_NORM = 1.0 / (GAUSS_SIGMA * math.sqrt(2.0 * math.pi) * _PHI_NORM)
 _TABLE_N = 4097
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def gaussian_cdf(x):
     """CDF of the truncated 1D Gaussian on [-GAUSS_RADIUS, GAUSS_RADIUS]."""
     return (0.5 * (1.0 + math.erf(x / _SQRT2_SIGMA)) - _PHI_LO) / _PHI_NORM
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def gaussian_pdf(x):
     """Normalised density of the truncated 1D Gaussian (0 outside the radius)."""
     if abs(x) > GAUSS_RADIUS:
@@ -72,7 +74,7 @@ GAUSS_INV_CDF_SLOPE = (GAUSS_SIGMA * math.sqrt(2.0 * math.pi) * _PHI_NORM / (_TA
                        * np.exp(GAUSS_INV_CDF ** 2 / (2.0 * GAUSS_SIGMA ** 2)))
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def sample_gaussian_1d(u):
     """Warp u in [0, 1) to x in [-1.5, 1.5] with the truncated Gaussian density: cubic Hermite
     interpolation of the tabulated inverse CDF and its exact derivative 1 / pdf
@@ -88,7 +90,7 @@ def sample_gaussian_1d(u):
     return min(max(x, -GAUSS_RADIUS), GAUSS_RADIUS)
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def sample_tent_1d(u):
     """Warp u in [0, 1) to x in [-1, 1] with density 1 - |x|."""
     if u < 0.5:
@@ -96,7 +98,7 @@ def sample_tent_1d(u):
     return 1.0 - math.sqrt(2.0 - 2.0 * u)
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def filter_offset(filter_id, u, v):
     """Pixel-space offset (dx, dy) from the pixel centre for the sample (u, v) in [0, 1)^2,
     distributed like filter ``filter_id`` (BOX, TENT, GAUSSIAN); every sample has weight 1."""
@@ -107,7 +109,7 @@ def filter_offset(filter_id, u, v):
     return u - 0.5, v - 0.5
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def filter_pdf_1d(filter_id, x):
     """Normalised 1D density of the offsets produced by ``filter_offset`` (one axis)."""
     if filter_id == TENT:

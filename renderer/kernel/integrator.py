@@ -29,17 +29,19 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
-from ..host.build import MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
-from .cameras import C_FAR, C_NEAR, camera_rays
+from .cameras import camera_rays
+from .dimensions import DIM_PIXEL, DIM_TIME, bsdf_dim, choice_dim, light_dim
 from .filters import filter_offset
+from .jit import INLINE_JIT, PARALLEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
 from .lights import escaped_radiance, light_is_area, sample_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
-from .samplers import DIM_BOUNCE0, DIM_PIXEL, DIM_TIME, SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
+from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .shapes import surface
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, U, V, intersect1,
                     intersect16, new_packet16, new_ray_buffer, occluded1, occluded16, set_ray16)
-from .vecmath import SHADING_JIT, dot, normalize, offset_origin, onb, reflect
+from .vecmath import dot, normalize, offset_origin, onb, reflect
 
 # counters (per tile): rays by kind, samples dropped as non-finite, and how many of the shadow rays were
 # first-hit ones traced in packets (also the ray record's kind for those)
@@ -52,11 +54,6 @@ TILE = 8
 SHADOW_EPS = 1e-5
 
 
-@nb.njit(cache=True, nogil=True)
-def _dims_per_bounce(n_lights):
-    return n_lights + 2
-
-
 def new_ray_record(width, height, rays_per_tile):
     """Arrays for recording up to `rays_per_tile` rays of every 8x8 tile: (rays float32
     (n_tiles, cap, R_FIELDS), kind int8 (n_tiles, cap) = RAYS_CAMERA, RAYS_SHADOW (traced alone),
@@ -67,7 +64,7 @@ def new_ray_record(width, height, rays_per_tile):
             np.full((ntiles, rays_per_tile), -1, np.int8), np.zeros(ntiles, np.int64))
 
 
-@nb.njit(inline='always')
+@nb.njit(**INLINE_JIT)
 def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     n = rec[2][tile]
     if n < rec[0].shape[1]:
@@ -85,7 +82,7 @@ def _record(rec, tile, kind, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     rec[2][tile] = n + 1
 
 
-@nb.njit(inline='always')
+@nb.njit(**INLINE_JIT)
 def new_tile_scratch(n_lights):
     """Per-thread scratch of `render_tile`: the camera packet, the first-hit shadow queue and the
     per-lane state, structure-of-arrays so that the camera stage's loops over the lanes vectorise
@@ -93,7 +90,7 @@ def new_tile_scratch(n_lights):
     cvalid, cf, cu = new_packet16()
     qvalid, qf, qu = new_packet16()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
-    # lane, and the first hit's light samples (pairs DIM_BOUNCE0 + k: rows 2k, 2k + 1), drawn for the
+    # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
     # whole packet by `sobol_packet` with the Sobol' sampler
     queue = (qvalid, qf, qu, np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
              np.zeros((PACKET, 3)), np.zeros((2 * max(n_lights, 1), PACKET)))
@@ -160,7 +157,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 sobol_packet(seed, DIM_TIME, lane_pi[0], lane_pi[1], n, 1, work, lane_ts)
             for k in range(n_lights):
                 if light_is_area(S, k):
-                    sobol_packet(seed, DIM_BOUNCE0 + k, lane_pi[0], lane_pi[1], n, 2, work, lsamp[2 * k:2 * k + 2])
+                    sobol_packet(seed, light_dim(0, k, n_lights), lane_pi[0], lane_pi[1], n, 2, work, lsamp[2 * k:2 * k + 2])
         else:
             for j in range(n):
                 if use_lens:
@@ -214,7 +211,7 @@ def render_tile(S, scene, cam, x0, y0, x1, y1, width, height, s0, s1, spp, sampl
                 counts[BAD_SAMPLES] += 1
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def _enqueue_shadow(scene, queue, lane, po, wi, smax, time, cr, cg, cb):
     """Queue a first-hit shadow ray whose unoccluded contribution (cr, cg, cb) goes to `lane`."""
     qvalid, qf, qu, qlane, qc, qn, ldir, _ = queue
@@ -248,7 +245,7 @@ def _flush_shadows(scene, queue):
     qn[0] = 0
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def _shading_point(S, scene, f, u, o, dvec, time, m, m32):
     """The surface hit by the ray (o, dvec) whose hit is in (f, u): (p, ng, ns, st, material, model,
     front), the normals turned towards the viewer (front: the ray hit the outside)."""
@@ -264,8 +261,8 @@ def _shading_point(S, scene, f, u, o, dvec, time, m, m32):
     return p, ng, ns, st, mat, model, front
 
 
-@nb.njit(**SHADING_JIT, inline='always')
-def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth, lane, queue, time,
+@nb.njit(**SHADING_INLINE_JIT)
+def _direct_light(S, scene, smp, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth, lane, queue, time,
                   f, u, counts, rec, tile, T, L):
     """Direct light at a shading point, one sample per light (soft shadows from area lights), added
     to the radiance L = (Lr, Lg, Lb) with throughput T = (tr, tg, tb); returns the new L.  At the first
@@ -284,7 +281,7 @@ def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, mod
                 u1 = queue[7][2 * k, lane]
                 u2 = queue[7][2 * k + 1, lane]
             else:
-                u1, u2 = sample_2d(sampler, seed, pixel, index, spp, base + k)
+                u1, u2 = sample_2d(sampler, seed, pixel, index, spp, light_dim(depth, k, n_lights))
         wi, dist, E = sample_light(S, k, p, ns, u1, u2)
         if E[0] == 0.0 and E[1] == 0.0 and E[2] == 0.0:
             continue
@@ -311,8 +308,8 @@ def _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, mod
     return Lr, Lg, Lb
 
 
-@nb.njit(**SHADING_JIT, inline='always')
-def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, model, front, osc, T, A):
+@nb.njit(**SHADING_INLINE_JIT)
+def _continuation(S, smp, depth, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, model, front, osc, T, A):
     """One specular continuation (mirror, glossy, glaze, refraction; the glossy pair is drawn only
     where a lobe uses it) from throughput T and medium attenuation A: (alive, origin, direction,
     throughput rgb, medium attenuation rgb)."""
@@ -326,7 +323,7 @@ def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, mode
         eta = ior if front else 1.0 / ior
         cos_i = -dot(dvec, ns)
         F, cos_t = fresnel_dielectric(cos_i, eta)
-        uc = sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1)
+        uc = sample_1d(sampler, seed, pixel, index, spp, choice_dim(depth, n_lights))
         if uc < F:
             nd = reflect(dvec, ns)
             o = offset_origin(p, ng, osc)
@@ -344,7 +341,7 @@ def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, mode
         return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr, tg, tb, ar, ag, ab
     if model == D.PREVIEW_SURFACE:
         diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
-        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, bsdf_dim(depth, n_lights))
         tt, bb = onb(ns)
         h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
         nd = reflect(dvec, h)
@@ -360,7 +357,7 @@ def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, mode
         wb = _schlick(f0[2], f90[2], vh) * gw
         # Russian roulette on the continuation weight keeps rough dielectrics cheap
         q = min(1.0, max(wr, max(wg, wb)))
-        if q <= 0.0 or sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= q:
+        if q <= 0.0 or sample_1d(sampler, seed, pixel, index, spp, choice_dim(depth, n_lights)) >= q:
             return dead
         o = offset_origin(p, ng, osc)
         return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr * (wr / q), tg * (wg / q), tb * (wb / q), ar, ag, ab
@@ -371,7 +368,7 @@ def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, mode
     rough = float(mf[mat, MF_ROUGH])
     if rough > 0.0 and model == D.BLINN_PHONG_MIRRORED:
         # the course's glossy reflection: perturb r on a square of side `roughness`
-        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, base + n_lights)
+        g1, g2 = sample_2d(sampler, seed, pixel, index, spp, bsdf_dim(depth, n_lights))
         tt, bb = onb(nd)
         a = rough * (g1 - 0.5)
         b = rough * (g2 - 0.5)
@@ -383,7 +380,7 @@ def _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks, mat, mode
     return True, (float(o[0]), float(o[1]), float(o[2])), nd, tr * w[0], tg * w[1], tb * w[2], ar, ag, ab
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, tile, cf, cu, lane, queue,
                depth0, L, T, A):
     """Radiance arriving along the ray (o, d) at shutter time `time`, starting at bounce `depth0`
@@ -395,7 +392,6 @@ def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, 
     more packet was measured: no gain, 0.99-1.02x, at twice the compile time.)
     `rec`: None, or a ray record (`new_ray_record`) to which the rays of tile `tile` are appended."""
     n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
-    per = _dims_per_bounce(n_lights)
     osc = S.offset_scale[0]            # scale of the near-origin ray offset (build.offset_scale)
     sampler, seed, pixel, index, spp = smp
     Lr, Lg, Lb = L
@@ -427,24 +423,23 @@ def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, 
                                                           dvec, time, m, m32)
         wo = (-dvec[0], -dvec[1], -dvec[2])
         kd, ks = colors(S, mat, st)
-        base = DIM_BOUNCE0 + depth * per
         mf = S.mat_f
         # ---- transparency (UsdPreviewSurface opacity): pass straight through with prob. 1 - opacity
         if model == D.PREVIEW_SURFACE:
             opacity = float(mf[mat, MF_OPACITY])
             if opacity < 1.0:
-                if sample_1d(sampler, seed, pixel, index, spp, base + n_lights + 1) >= opacity:
+                if sample_1d(sampler, seed, pixel, index, spp, choice_dim(depth, n_lights)) >= opacity:
                     ox, oy, oz = offset_origin(p, (-ng[0], -ng[1], -ng[2]), osc)
                     continue
             Lr += tr * mf[mat, MF_EMIT]
             Lg += tg * mf[mat, MF_EMIT + 1]
             Lb += tb * mf[mat, MF_EMIT + 2]
         if has_diffuse_lobe(model):
-            Lr, Lg, Lb = _direct_light(S, scene, smp, base, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth,
+            Lr, Lg, Lb = _direct_light(S, scene, smp, n_lights, p, ng, ns, wo, kd, ks, mat, model, osc, depth,
                                        lane, queue, time, f, u, counts, rec, tile, (tr, tg, tb), (Lr, Lg, Lb))
         if depth == max_depth:
             break
-        alive, o2, nd, tr, tg, tb, ar, ag, ab = _continuation(S, smp, base, n_lights, p, ng, ns, wo, dvec, kd, ks,
+        alive, o2, nd, tr, tg, tb, ar, ag, ab = _continuation(S, smp, depth, n_lights, p, ng, ns, wo, dvec, kd, ks,
                                                                mat, model, front, osc, (tr, tg, tb), (ar, ag, ab))
         if not alive:
             break
@@ -455,7 +450,7 @@ def trace_path(S, scene, o, d, time, smp, max_depth, f, u, m, m32, counts, rec, 
     return Lr, Lg, Lb
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def _lane_hit(cf, cu, lane, f, u):
     """Copy lane `lane` of a traced RTCRayHit16 into the single-ray record (f, u); True on a hit."""
     f[TFAR] = cf[TFAR * PACKET + lane]
@@ -468,7 +463,7 @@ def _lane_hit(cf, cu, lane, f, u):
     return u[GEOM_ID] != INVALID
 
 
-@nb.njit(parallel=True, cache=True, nogil=True)
+@nb.njit(**PARALLEL_JIT)
 def render_pass(S, scene, cam, width, height, s0, s1, spp, sampler, filt, seed, max_depth,
                 use_lens, use_time, accum, counters, rec=None):
     """Add samples [s0, s1) of every pixel to `accum` (height, width, 3) float64.

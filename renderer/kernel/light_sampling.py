@@ -24,11 +24,10 @@ import math
 import numba as nb
 
 from .. import description as D
-from ..host.build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .lights import dome_radiance
-from .vecmath import SHADING_JIT, cross, dot, normalize, onb, sub, to_world
-
-_JIT = dict(SHADING_JIT, inline='always')
+from .jit import SHADING_INLINE_JIT as _JIT
+from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .vecmath import cross, dot, normalize, onb, sub, to_world
 INF = math.inf
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)

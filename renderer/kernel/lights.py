@@ -16,20 +16,20 @@ import math
 import numba as nb
 
 from .. import description as D
-from ..host.build import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
+from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
-from .vecmath import SHADING_JIT, dot, normalize, onb, sub, to_world
+from .vecmath import dot, normalize, onb, sub, to_world
 
-_JIT = dict(cache=True, nogil=True, inline='always')
 INF = math.inf
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _col(li_f, k, j):
     return (li_f[k, LF_M + j], li_f[k, LF_M + 4 + j], li_f[k, LF_M + 8 + j])
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def light_is_area(S, k):
     """True if light k has extent (its sample point uses a 2D sample): not a point light, not a
     distant light of zero angle.  Delta lights draw no sample: nothing is computed they don't need."""
@@ -37,7 +37,7 @@ def light_is_area(S, k):
     return not (t == D.POINT or (t == D.DISTANT and S.li_f[k, LF_COS_MAX] >= 1.0))
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def sample_light(S, k, p, n, u1, u2):
     """-> (wi, dist, E_perp rgb).  E_perp = (0,0,0) when the sample cannot contribute (behind the
     light, inside a sphere light, ...).  n is the shading normal facing the viewer; only the dome
@@ -142,7 +142,7 @@ def dome_radiance(S, k, wd):
     return (L[0] * c[0], L[1] * c[1], L[2] * c[2])
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def escaped_radiance(S, wd):
     """Radiance of a ray that leaves the scene: the dome lights if any, else the background colour."""
     r = 0.0

@@ -21,16 +21,16 @@ import math
 import numba as nb
 
 from .. import description as D
-from ..host.build import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
+from .jit import JIT, SHADING_INLINE_JIT
+from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
                     MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
 from .textures import sample_texture
-from .vecmath import SHADING_JIT, dot, normalize
+from .vecmath import dot, normalize
 
-_JIT = dict(cache=True, nogil=True)
 GOOCH_BLUE, GOOCH_YELLOW, GOOCH_ALPHA, GOOCH_BETA = 0.4, 0.4, 0.2, 0.6
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def colors(S, mat, st):
     """(kd, ks) with textures applied."""
     mf = S.mat_f
@@ -47,20 +47,20 @@ def colors(S, mat, st):
     return kd, ks
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def has_diffuse_lobe(model):
     return (model == D.LAMBERTIAN or model == D.BLINN_PHONG or model == D.GLAZE
             or model == D.BLINN_PHONG_MIRRORED or model == D.COOL_TO_WARM or model == D.PREVIEW_SURFACE)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def _schlick(f0, f90, c):
     x = 1.0 - c
     x5 = x * x * x * x * x
     return f0 + (f90 - f0) * x5
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def preview_params(S, mat, kd, ks):
     """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface."""
     mf = S.mat_f
@@ -80,20 +80,20 @@ def preview_params(S, mat, kd, ks):
     return diff, f0, (c0, c1, c2), alpha
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def ggx_d(nh, alpha):
     a2 = alpha * alpha
     x = nh * nh * (a2 - 1.0) + 1.0
     return a2 / (math.pi * x * x)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def smith_g(nl, nv, alpha):
     k = 0.5 * alpha
     return (nl / (nl * (1.0 - k) + k)) * (nv / (nv * (1.0 - k) + k))
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def direct(S, mat, kd, ks, n, wo, wi, E):
     """Reflected radiance towards wo from one light sample arriving along wi with E_perp = E.
     n is the shading normal on the viewer's side."""
@@ -151,7 +151,7 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
     return (0.0, 0.0, 0.0)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def fresnel_dielectric(cos_i, eta):
     """Unpolarised Fresnel reflectance for relative index eta = n_t / n_i (cos_i > 0); 1 on total
     internal reflection.  Also returns cos_t."""
@@ -164,7 +164,7 @@ def fresnel_dielectric(cos_i, eta):
     return 0.5 * (rs * rs + rp * rp), cos_t
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def refract(d, n, eta, cos_i, cos_t):
     """Refracted direction of unit d through a surface with unit normal n facing against d."""
     k = 1.0 / eta
@@ -173,7 +173,7 @@ def refract(d, n, eta, cos_i, cos_t):
                       k * d[2] + (k * cos_i - cos_t) * n[2]))
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def mirror_weight(S, mat, model, ks):
     """Colour weight of the specular continuation of the course models (0 = none)."""
     if model == D.MIRROR:
@@ -186,7 +186,7 @@ def mirror_weight(S, mat, model, ks):
     return (0.0, 0.0, 0.0)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**JIT)
 def sample_ggx_h(n, alpha, u1, u2, onb_t, onb_b):
     """Half vector from the GGX normal distribution (pdf D(h) cos(theta_h))."""
     phi = 2.0 * math.pi * u1

@@ -17,7 +17,7 @@ paths), 'bsdf' (BSDF sampling alone: delta lights contribute nothing).
 
 Sampling: every random number is `sample_2d/1d(sampler, seed, pixel, index, spp, pair)`; the pairs
 are DIM_PIXEL, DIM_LENS, DIM_TIME (camera) and per path vertex v the PATH_PAIRS pairs from
-`vertex_pair(v, P_*)`: light point (2D), light choice, BSDF direction (2D), lobe choice (also the
+`path_dim(v, P_*)`: light point (2D), light choice, BSDF direction (2D), lobe choice (also the
 opacity choice, rescaled), roulette.  Pure functions of their arguments: images are bit-identical
 whatever the thread count or the split into passes.  Camera rays are traced in 16-ray packets
 (rtcIntersect16), every later ray alone (rtcIntersect1 / rtcOccluded1).
@@ -28,37 +28,31 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
-from ..host.build import MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH, \
-    MF_ATTEN
 from .bsdf import BLACK, course_bsdf, evaluate, is_delta, preview_bsdf, sample
-from .cameras import C_FAR, C_NEAR, camera_rays
+from .cameras import camera_rays
+from .dimensions import DIM_PIXEL, DIM_TIME, P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .filters import filter_offset
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, \
     _lane_hit, _shading_point
 from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, colors, preview_params
-from .samplers import DIM_BOUNCE0, DIM_PIXEL, DIM_TIME, SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
+from .jit import SHADING_INLINE_JIT, SHADING_JIT
+from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
+from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
+                     MF_ROUGH)
 from .trace import PACKET, TFAR, intersect1, intersect16, new_packet16, new_ray_buffer, occluded1, set_ray16
-from .vecmath import SHADING_JIT, dot, offset_origin, onb, to_world
+from .vecmath import dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
 MIS, NEE_ONLY, BSDF_ONLY = 0, 1, 2
 # emission weights of `light_sampling.area_emission`
 W_POWER, W_ONE, W_ZERO = 0, 1, 2
-PATH_PAIRS = 5
-P_LIGHT, P_CHOICE, P_BSDF, P_LOBE, P_RR = range(PATH_PAIRS)
 RR_DEPTH = 3
 PASS_THROUGH_MAX = 64          # transparent surfaces a path may cross without a bounce
 SHADOW_EPS = 1e-5
 
 
-@nb.njit(cache=True, nogil=True)
-def vertex_pair(v, offset):
-    """Dimension pair of `offset` (P_*) at path vertex v (0 = the camera ray's hit)."""
-    return DIM_BOUNCE0 + PATH_PAIRS * v + offset
-
-
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def vertex_bsdf(S, mat, model, kd, ks, front):
     """The `bsdf.Bsdf` of material `mat` (textured colours kd, ks) seen from the front or the back."""
     mf = S.mat_f
@@ -74,15 +68,15 @@ def vertex_bsdf(S, mat, model, kd, ks, front):
                        float(mf[mat, MF_IOR]), front, cool)
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def next_event(S, L, scene, smp, v, vtx, b, ws):
     """Light from one light sample at vertex vtx = (p, ng, ns, tt, bb, wo_local, po, time, strategy),
     MIS-weighted, not yet multiplied by the path throughput."""
     sampler, seed, pixel, index, spp = smp
     p, ng, ns, tt, bb, wl, po, time, strategy = vtx
     f, u, counts = ws[0], ws[1], ws[4]
-    k, pk = choose_light(L, sample_1d(sampler, seed, pixel, index, spp, vertex_pair(v, P_CHOICE)))
-    u1, u2 = sample_2d(sampler, seed, pixel, index, spp, vertex_pair(v, P_LIGHT))
+    k, pk = choose_light(L, sample_1d(sampler, seed, pixel, index, spp, path_dim(v, P_CHOICE)))
+    u1, u2 = sample_2d(sampler, seed, pixel, index, spp, path_dim(v, P_LIGHT))
     wi, dist, Le, pdf, delta = sample_ld(S, L, k, p, ns, u1, u2)
     if not pdf > 0.0 or dot(wi, ng) <= 0.0:
         return BLACK
@@ -99,19 +93,19 @@ def next_event(S, L, scene, smp, v, vtx, b, ws):
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def _origin(p, n, osc):
     """`offset_origin` as float64 (the float32 values exactly)."""
     q = offset_origin(p, n, osc)
     return float(q[0]), float(q[1]), float(q[2])
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def _add(L, T, c):
     return L[0] + T[0] * c[0], L[1] + T[1] * c[1], L[2] + T[2] * c[2]
 
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def trace_path(S, L, scene, ray, smp, opts, ws):
     """Radiance along the camera ray ray = (o, d, time), already traced as lane ws[7] of the packet
     (ws[5], ws[6]); smp = (sampler, seed, pixel, index, spp); opts = (max_depth, strategy);
@@ -146,7 +140,7 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
             T = (T[0] * A[0] ** tmax, T[1] * A[1] ** tmax, T[2] * A[2] ** tmax)
         p, ng, ns, st, mat, model, front = _shading_point(S, scene, f, u, o, d, time, m, m32)
         kd, ks = colors(S, mat, st)
-        ul = sample_1d(sampler, seed, pixel, index, spp, vertex_pair(v, P_LOBE))
+        ul = sample_1d(sampler, seed, pixel, index, spp, path_dim(v, P_LOBE))
         if model == D.PREVIEW_SURFACE:
             opacity = float(mf[mat, MF_OPACITY])
             if opacity < 1.0:
@@ -165,7 +159,7 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
         po = _origin(p, ng, osc)
         if strategy != BSDF_ONLY and n_lights > 0 and not is_delta(b):
             Lo = _add(Lo, T, next_event(S, L, scene, smp, v, (p, ng, ns, tt, bb, wl, po, time, strategy), b, ws))
-        u1, u2 = sample_2d(sampler, seed, pixel, index, spp, vertex_pair(v, P_BSDF))
+        u1, u2 = sample_2d(sampler, seed, pixel, index, spp, path_dim(v, P_BSDF))
         il, w, pdf, delta = sample(b, wl, ul, u1, u2)
         if w[0] == 0.0 and w[1] == 0.0 and w[2] == 0.0:
             break
@@ -190,7 +184,7 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
         if depth >= RR_DEPTH:
             q = max(T[0], T[1], T[2]) * es
             if q < 1.0:
-                if sample_1d(sampler, seed, pixel, index, spp, vertex_pair(v, P_RR)) >= q:
+                if sample_1d(sampler, seed, pixel, index, spp, path_dim(v, P_RR)) >= q:
                     break
                 T = (T[0] / q, T[1] / q, T[2] / q)
     return Lo

@@ -12,9 +12,8 @@ Both are pure functions of their arguments (no RNG state), so a render is bit-id
 the thread count or the order in which pixels and samples are evaluated.  All values are
 multiples of 2^-24, hence exactly representable in float32 and strictly below 1.
 
-Dimension-pair layout (``DIM_*`` constants below): pair 0 = pixel (filter offset), 1 = lens,
-2 = (time, spare 1D), then per bounce b: ``3+4b`` light position, ``4+4b`` light choice (1D),
-``5+4b`` glossy/BSDF 2D, ``6+4b`` Fresnel choice (1D).  ``bounce_dim(b, k)`` computes these.
+Which pair feeds which decision (pixel, lens, time, lights, BSDF, choices per bounce) is owned by
+``dimensions.py``; the samplers only know that pairs DIM_PIXEL and DIM_LENS form one 4D Sobol' point.
 
 Samplers
 --------
@@ -65,37 +64,22 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
+from .dimensions import DIM_LENS, DIM_PIXEL
+from .jit import INLINE_JIT, JIT, SHADING_JIT
+
 # --------------------------------------------------------------------------- public constants
 INDEPENDENT, STRATIFIED, CMJ, SOBOL = 0, 1, 2, 3
 SAMPLER_NAMES = {'independent': INDEPENDENT, 'stratified': STRATIFIED, 'cmj': CMJ, 'sobol': SOBOL}
 
-DIM_PIXEL = 0          # pixel position (filter importance sample)
-DIM_LENS = 1           # lens position
-DIM_TIME = 2           # (time, spare 1D)
-DIM_BOUNCE0 = 3        # first per-bounce pair
-DIMS_PER_BOUNCE = 4
-BOUNCE_LIGHT = 0       # offsets inside a bounce block
-BOUNCE_LIGHT_CHOICE = 1
-BOUNCE_BSDF = 2
-BOUNCE_FRESNEL = 3
-
 _M32 = 0xFFFFFFFF
-# The hashing and scrambling helpers are inlined into the three public functions at numba IR level: as
-# separate LLVM functions (numba's calling convention: results through memory, a status check per
-# call) a Sobol' 2D sample took 45 ns, inlined 29 ns (microbenchmark, same values).
-_INLINE = dict(cache=True, nogil=True, inline='always')
+# The hashing and scrambling helpers are inlined into the public functions at numba IR level
+# (INLINE_JIT): as separate LLVM functions a Sobol' 2D sample took 45 ns, inlined 29 ns.
 _INV_2_24 = 1.0 / 16777216.0
 _ONE_MINUS = 1.0 - _INV_2_24       # largest float32 below 1: clamp so that float32(u) < 1 too
 
 
-@njit(cache=True, nogil=True)
-def bounce_dim(bounce, offset):
-    """Dimension-pair number of ``offset`` (BOUNCE_*) at bounce ``bounce`` (0 = camera hit)."""
-    return DIM_BOUNCE0 + DIMS_PER_BOUNCE * bounce + offset
-
-
 # --------------------------------------------------------------------------- integer hashing
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def mix32(x):
     """Chris Wellons' 'lowbias32' 32-bit integer finaliser (full avalanche, bias ~0.17)."""
     x &= _M32
@@ -107,7 +91,7 @@ def mix32(x):
     return x
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def hash_combine(h, v):
     """Fold the (up to 64-bit, non-negative) integer ``v`` into the 32-bit hash ``h``."""
     v = np.int64(v)
@@ -118,20 +102,20 @@ def hash_combine(h, v):
     return h
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def hash3(a, b, c):
     """32-bit hash of three integers."""
     return hash_combine(hash_combine(mix32(np.int64(a) ^ 0x2545F491), b), c)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def to_unit(x):
     """Top 24 bits of a 32-bit integer as a float in [0, 1), exact in float32."""
     return ((x & _M32) >> 8) * _INV_2_24
 
 
 # --------------------------------------------------------------------------- Kensler 2013
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def permute(i, l, p):
     """Kensler 2013, listing 3: a pseudo-random permutation of [0, l) indexed by pattern ``p``,
     evaluated at ``i`` (hash on the next power of two with cycle walking)."""
@@ -167,7 +151,7 @@ def permute(i, l, p):
     return (i + p) % l
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def randfloat(i, p):
     """Kensler 2013, listing 4: hashed float in [0, 1) for index ``i`` and pattern ``p``
     (returned with 24 bits so that it stays < 1 in float32)."""
@@ -186,7 +170,7 @@ def randfloat(i, p):
     return to_unit(i)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def cmj(s, n_samples, p):
     """Kensler 2013, listing 6 (final CMJ, any N, aspect 1): sample ``s`` of ``n_samples`` of
     pattern ``p``.  One sample per cell of the m x n grid (m = floor(sqrt(N)), n = ceil(N/m)) and
@@ -253,7 +237,7 @@ SOBOL_DIRECTIONS = _sobol_directions(4)
 SOBOL_BYTES = _byte_tables(SOBOL_DIRECTIONS)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def sobol(index, dim):
     """Unscrambled 32-bit Sobol' value of ``index`` in dimension ``dim`` (0..3), natural order:
     the XOR of the direction numbers of the set bits of ``index`` (generator-matrix product)."""
@@ -275,13 +259,13 @@ def _bitreverse32(typingctx, x):
     return sig, codegen
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def reverse_bits(x):
     """Reverse the 32 bits of ``x``."""
     return _bitreverse32(np.int64(x))
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def laine_karras_permutation(x, seed):
     """Owen-scrambling hash on bit-reversed integers (Burley 2020, listing 2): every output bit
     depends only on the same and lower input bits.  Constants from Vegdahl 2021's improved hash."""
@@ -295,13 +279,13 @@ def laine_karras_permutation(x, seed):
     return x
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def nested_uniform_scramble(x, seed):
     """Owen (nested uniform) scramble of a 32-bit fixed-point value (Burley 2020, listing 3)."""
     return reverse_bits(laine_karras_permutation(reverse_bits(x), seed))
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _sobol_owen_2d(index, seed, d0):
     """Dims d0, d0+1 of the Owen-scrambled Sobol' point at shuffled ``index``."""
     x = nested_uniform_scramble(sobol(index, d0), hash_combine(seed, d0))
@@ -309,7 +293,7 @@ def _sobol_owen_2d(index, seed, d0):
     return to_unit(x), to_unit(y)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def sobol_sample_4d(seed, pixel, index):
     """Pairs 0 and 1 (pixel, lens) of sample ``index`` at once: one 4D point, so one hash and one
     index shuffle instead of two of each (the values of two `sobol_sample_2d` calls)."""
@@ -320,7 +304,7 @@ def sobol_sample_4d(seed, pixel, index):
     return a, b, c, d
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def sobol_sample_2d(seed, pixel, index, dim):
     """Pair ``dim`` of the Owen-scrambled Sobol' sample ``index``: pairs 0, 1 = one 4D point,
     later pairs = padded 2D points with a per-(pixel, pair) index shuffle (Burley 2020, sec. 4-5)."""
@@ -349,7 +333,7 @@ def _bitreverse_u32(typingctx, x):
     return sig, codegen
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _mix32_u(x):
     x = np.uint32(x ^ (x >> np.uint32(16)))
     x = np.uint32(x * np.uint32(0x7FEB352D))
@@ -358,7 +342,7 @@ def _mix32_u(x):
     return np.uint32(x ^ (x >> np.uint32(16)))
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _owen_u(x, seed):
     """`nested_uniform_scramble` on uint32."""
     x = _bitreverse_u32(x)
@@ -373,7 +357,7 @@ def _owen_u(x, seed):
 SOBOL_BYTES_U32 = SOBOL_BYTES.astype(np.uint32)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _sobol_u(tables, index, dim):
     return np.uint32(tables[dim, 0, index & np.uint32(0xFF)] ^ tables[dim, 1, (index >> np.uint32(8)) & np.uint32(0xFF)]
                      ^ tables[dim, 2, (index >> np.uint32(16)) & np.uint32(0xFF)]
@@ -383,7 +367,7 @@ def _sobol_u(tables, index, dim):
 PIXEL_LENS_TAG = 0x5EED0001      # hash tag of the 4D point of pairs DIM_PIXEL and DIM_LENS
 
 
-@njit(cache=True, nogil=True, _nrt=False)
+@njit(**SHADING_JIT)
 def sobol_packet(seed, pair, pixel, index, n, n_dims, work, out):
     """Owen-scrambled Sobol' samples (pixel[j], index[j]) for the lanes j < n of a packet:
     out[d, j] for d < n_dims, bit for bit the scalar sampler's values:
@@ -415,14 +399,14 @@ def sobol_packet(seed, pair, pixel, index, n, n_dims, work, out):
 
 
 # --------------------------------------------------------------------------- other samplers
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def independent_sample_2d(seed, pixel, index, dim):
     """Two hashed uniform numbers for (seed, pixel, index, pair)."""
     h = hash_combine(hash3(seed, pixel, index), dim)
     return to_unit(mix32(h ^ 0x68E31DA4)), to_unit(mix32(h ^ 0xB5297A4D))
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _grid_factor(n):
     """Most square factorisation n = nx * ny with nx <= ny; returns nx."""
     nx = np.int64(math.sqrt(n))
@@ -435,7 +419,7 @@ def _grid_factor(n):
     return max(nx, 1)
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def _pattern(seed, pixel, index, spp, dim):
     """Kensler pattern id of the set that sample ``index`` belongs to, and its index in the set."""
     rnd = index // spp
@@ -445,7 +429,7 @@ def _pattern(seed, pixel, index, spp, dim):
     return p, index - rnd * spp
 
 
-@njit(**_INLINE)
+@njit(**INLINE_JIT)
 def stratified_sample_2d(seed, pixel, index, spp, dim):
     """Jittered nx x ny grid sample; cell order permuted per (seed, pixel, pair)."""
     p, i = _pattern(seed, pixel, index, spp, dim)
@@ -458,7 +442,7 @@ def stratified_sample_2d(seed, pixel, index, spp, dim):
 
 
 # --------------------------------------------------------------------------- public API
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def sample_2d(sampler, seed, pixel, index, spp, dim):
     """Dimension pair ``dim`` of sample ``index`` (of ``spp``) of pixel ``pixel``: (u, v) in [0,1)^2.
 
@@ -479,7 +463,7 @@ def sample_2d(sampler, seed, pixel, index, spp, dim):
     return independent_sample_2d(seed, pixel, index, dim)
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def sample_pixel_lens(sampler, seed, pixel, index, spp):
     """Pairs DIM_PIXEL and DIM_LENS of one sample together, (a, b, lens_u, lens_v): the values of
     two `sample_2d` calls; the Sobol' sampler computes its 4D point once (~35 % less time)."""
@@ -490,7 +474,7 @@ def sample_pixel_lens(sampler, seed, pixel, index, spp):
     return a, b, lu, lv
 
 
-@njit(cache=True, nogil=True)
+@njit(**JIT)
 def sample_1d(sampler, seed, pixel, index, spp, dim):
     """A 1D sample in [0, 1) for pair ``dim``, stratified into ``spp`` strata by every sampler
     except INDEPENDENT.  It is the first coordinate of ``sample_2d`` for INDEPENDENT and SOBOL, the

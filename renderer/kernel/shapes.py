@@ -16,11 +16,12 @@ import math
 
 import numba as nb
 
-from ..host.build import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
+from .jit import SHADING_INLINE_JIT
+from .tables import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
 from .trace import instance_transform
-from .vecmath import SHADING_JIT, cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
+from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
-@nb.njit(**SHADING_JIT, inline='always')
+@nb.njit(**SHADING_INLINE_JIT)
 def surface(S, scene, inst_id, inst_prim, geom_id, prim_id, bu, bv, o, d, t, time, m, m32):
     """-> (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
     Moving placements take their matrix from Embree (interpolated exactly as it was traced: lerped

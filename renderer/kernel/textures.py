@@ -10,13 +10,12 @@ import math
 
 import numba as nb
 
-from .vecmath import SHADING_JIT
+from .jit import INLINE_JIT, SHADING_JIT
+from .tables import (TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH, TI_WRAP_S, TI_WRAP_T,
+                     WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR, WRAP_REPEAT as REPEAT)
 
-_JIT = dict(cache=True, nogil=True, inline='always')
-REPEAT, CLAMP, MIRROR, BLACK = 0, 1, 2, 3
 
-
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _wrap(i, n, mode):
     """-> (index, inside) for integer texel coordinate i."""
     if 0 <= i < n:
@@ -31,14 +30,14 @@ def _wrap(i, n, mode):
     return 0, False
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _texel(S, tid, x, y, c):
-    off = S.tex_i[tid, 0]
-    w = S.tex_i[tid, 1]
-    h = S.tex_i[tid, 2]
-    ch = S.tex_i[tid, 3]
-    xi, okx = _wrap(x, w, S.tex_i[tid, 4])
-    yi, oky = _wrap(y, h, S.tex_i[tid, 5])
+    off = S.tex_i[tid, TI_OFFSET]
+    w = S.tex_i[tid, TI_WIDTH]
+    h = S.tex_i[tid, TI_HEIGHT]
+    ch = S.tex_i[tid, TI_CHANNELS]
+    xi, okx = _wrap(x, w, S.tex_i[tid, TI_WRAP_S])
+    yi, oky = _wrap(y, h, S.tex_i[tid, TI_WRAP_T])
     if not (okx and oky):
         return 0.0
     cc = c if c < ch else (0 if ch < 3 else ch - 1)
@@ -48,8 +47,8 @@ def _texel(S, tid, x, y, c):
 @nb.njit(**SHADING_JIT)
 def sample_texture(S, tid, s, t):
     """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias."""
-    w = S.tex_i[tid, 1]
-    h = S.tex_i[tid, 2]
+    w = S.tex_i[tid, TI_WIDTH]
+    h = S.tex_i[tid, TI_HEIGHT]
     x = s * w - 0.5
     y = (1.0 - t) * h - 0.5
     x0 = math.floor(x)
@@ -64,7 +63,7 @@ def sample_texture(S, tid, s, t):
     for c in range(3):
         v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, c) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, c)
              + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, c) + fx * fy * _texel(S, tid, ix + 1, iy + 1, c))
-        v = v * S.tex_f[tid, c] + S.tex_f[tid, 4 + c]
+        v = v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
         if c == 0:
             out0 = v
         elif c == 1:

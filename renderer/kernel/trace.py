@@ -1,16 +1,16 @@
 """Ray queries callable from numba kernels, cacheable (``@njit(cache=True)``).
 
-Why aliased symbols
+Why symbols by name
 -------------------
 A numba kernel that calls a ctypes function object embeds the function's address as a
 "dynamic global" and can never be cached (every process recompiles, ~1.5 s per kernel).  Instead,
-at import this module registers the Embree entry points with LLVM under private names
-(``llvmlite.binding.add_symbol("rtc_emb4_rtcIntersect1", address)``) and declares them as
-``numba.types.ExternalFunction``: compiled code then refers to the *name*, which the JIT linker
-resolves in every process - so cached kernels load.  The ``rtc_emb4_`` prefix keeps these symbols
-apart from any other Embree in the process (e.g. Mitsuba's libembree3).  A module with cached
-kernels that use these functions imports this module, which registers the symbols before numba
-links any cached code.
+this module declares the Embree entry points by name only, as ``numba.types.ExternalFunction``
+("rtc_emb4_rtcIntersect1", ...): compiled code refers to the *name*, which the JIT linker resolves
+in every process - so cached kernels load.  The host's binding (`host/embree.py`) registers those
+names with LLVM (``llvmlite.binding.add_symbol``) when it loads the library, before any kernel is
+compiled or a cached one linked (every render builds its scene through that binding first).  The
+``rtc_emb4_`` prefix keeps these symbols apart from any other Embree in the process (e.g.
+Mitsuba's libembree3).  Nothing here imports the binding: the kernel layer holds no ctypes objects.
 Numba invalidates a cache entry only when the kernel's own source file changes; `renderer/__init__.py`
 therefore keys the whole cache directory on a hash of every renderer source file.
 
@@ -35,28 +35,28 @@ hits); for incoherent bounces single rays are faster (embree.md section 9).
 """
 from __future__ import annotations
 
-import ctypes
-
-import llvmlite.binding as llvm
 import numba
 import numpy as np
 from numba import types
 
-from ..host.embree import LIB, RTC_FORMAT_FLOAT3X4_ROW_MAJOR, RTC_INVALID_GEOMETRY_ID
+from .jit import INLINE_JIT
 
 __all__ = [
+    "SYMBOL_PREFIX", "EXTERNAL_FUNCTIONS",
     "rtcIntersect1", "rtcOccluded1", "rtcIntersect16", "rtcOccluded16", "rtcGetGeometry",
-    "rtcGetGeometryTransformEx", "rtcGetGeometryTransformFromScene",
+    "rtcGetGeometryTransformEx",
     "new_ray_buffer", "intersect1", "occluded1", "instance_transform",
     "new_packet16", "set_ray16", "intersect16", "occluded16",
-    "trace_rays", "occlude_rays", "trace_rays16", "occlude_rays16",
 ]
+
+SYMBOL_PREFIX = "rtc_emb4_"        # host/embree.py registers LIB.<name> as SYMBOL_PREFIX + <name>
+EXTERNAL_FUNCTIONS = {}            # Embree function name -> its numba declaration
 
 
 def _external(name: str, signature):
-    alias = "rtc_emb4_" + name
-    llvm.add_symbol(alias, ctypes.cast(getattr(LIB, name), ctypes.c_void_p).value)
-    return types.ExternalFunction(alias, signature)
+    fn = types.ExternalFunction(SYMBOL_PREFIX + name, signature)
+    EXTERNAL_FUNCTIONS[name] = fn
+    return fn
 
 
 _p = types.uintp
@@ -73,10 +73,6 @@ rtcGetGeometry = _external("rtcGetGeometry", _p(_p, types.uint32))
 # void rtcGetGeometryTransformEx(RTCGeometry, unsigned instPrimID, float time, RTCFormat, void* xfm)
 rtcGetGeometryTransformEx = _external("rtcGetGeometryTransformEx",
                                       types.void(_p, types.uint32, types.float32, types.int32, _p))
-# void rtcGetGeometryTransformFromScene(RTCScene, unsigned geomID, float time, RTCFormat, void* xfm)
-# (plain instances only: for an instance array it returns element 0 - use instance_transform)
-rtcGetGeometryTransformFromScene = _external("rtcGetGeometryTransformFromScene",
-                                             types.void(_p, types.uint32, types.float32, types.int32, _p))
 
 # element indices into the ray/hit records (byte offset / 4), see the module docstring
 ORG_X, ORG_Y, ORG_Z, TNEAR, DIR_X, DIR_Y, DIR_Z, TIME, TFAR, MASK, RAY_ID, FLAGS = range(12)
@@ -84,9 +80,11 @@ NG_X, NG_Y, NG_Z, U, V, PRIM_ID, GEOM_ID, INST_ID, INST_PRIM_ID = range(12, 21)
 RAYHIT_FLOATS = 24            # 96 B
 PACKET = 16
 PACKET_FLOATS = 21 * PACKET   # RTCRayHit16: 21 fields x 16 lanes = 1344 B (Embree writes nothing beyond)
-INVALID = RTC_INVALID_GEOMETRY_ID
+# Embree 4 ABI values (rtcore_common.h; the binding's RTC_INVALID_GEOMETRY_ID and
+# RTC_FORMAT_FLOAT3X4_ROW_MAJOR, checked equal by tests/renderer/test_embree.py)
+INVALID = 0xFFFFFFFF
 _ALL_MASK = 0xFFFFFFFF
-_XFM_ROW_MAJOR = RTC_FORMAT_FLOAT3X4_ROW_MAJOR
+_XFM_ROW_MAJOR = 0x9134
 
 # bare tracing loops: rays per work item, and the prime stride that scatters work items over
 # threads (numba hands each thread a contiguous block of a prange; images are not uniform)
@@ -95,7 +93,7 @@ _SCATTER = 7919
 
 
 # ----------------------------------------------------------------------------- single rays
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def new_ray_buffer():
     """A 96-B RTCRayHit scratch record: (float32[24], uint32[24]) views of the same memory.
     numba allocates arrays 32-B aligned (Embree needs 16).  Allocate once per thread/work item."""
@@ -103,7 +101,7 @@ def new_ray_buffer():
     return buf, buf.view(np.uint32)
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     f[ORG_X] = ox
     f[ORG_Y] = oy
@@ -119,7 +117,7 @@ def _set_ray(f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     u[FLAGS] = 0
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     """Closest hit of one ray; True if something was hit (then f[TFAR] = t and the hit fields are
     set).  scene: ``Scene.handle``; f, u: ``new_ray_buffer()``; time in [0, 1] (shutter)."""
@@ -131,7 +129,7 @@ def intersect1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     return u[GEOM_ID] != INVALID
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def occluded1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     """True if anything lies on the ray within [tnear, tfar] (any hit; uses the first 48 B of
     the buffer: Embree sets tfar to -inf when occluded)."""
@@ -140,7 +138,7 @@ def occluded1(scene, f, u, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     return f[TFAR] == -np.inf
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def instance_transform(scene, inst_id, inst_prim_id, time, out):
     """Write the local-to-world matrix of instance (inst_id, inst_prim_id) at ray time ``time``
     into ``out`` (float32[12], row-major 3x4 ``M[:3, :4]``), interpolated exactly as Embree traced it
@@ -150,7 +148,7 @@ def instance_transform(scene, inst_id, inst_prim_id, time, out):
 
 
 # ----------------------------------------------------------------------------- packets of 16
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def new_packet16():
     """(valid int32[16], float32[336], uint32[336]) for RTCRayHit16 packets, 64-B aligned.
     One over-allocated array: numba only guarantees 32-B alignment."""
@@ -162,7 +160,7 @@ def new_packet16():
     return valid, f, f.view(np.uint32)
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def set_ray16(valid, f, u, lane, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     """Fill lane ``lane`` of a packet with a ray (and mark it valid / reset its hit ids)."""
     f[ORG_X * PACKET + lane] = ox
@@ -183,20 +181,20 @@ def set_ray16(valid, f, u, lane, ox, oy, oz, dx, dy, dz, tnear, tfar, time):
     valid[lane] = -1
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def intersect16(scene, valid, f):
     """Closest hits of the valid lanes; lane j hit iff u[GEOM_ID * 16 + j] != INVALID."""
     rtcIntersect16(valid.ctypes.data, scene, f.ctypes.data, 0)
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def occluded16(scene, valid, f):
     """Occlusion of the valid lanes; lane j occluded iff f[TFAR * 16 + j] == -inf."""
     rtcOccluded16(valid.ctypes.data, scene, f.ctypes.data, 0)
 
 
 # ----------------------------------------------------------------------------- bare tracing loops
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def _work_item(i, n_items):
     """Visit work items in the order (i * 7919) % n (a permutation unless 7919 divides n)."""
     stride = _SCATTER if n_items % _SCATTER != 0 else 1
@@ -236,7 +234,7 @@ def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded):
                                         dirs[r, 0], dirs[r, 1], dirs[r, 2], tnear[r], tfar[r], time[r])
 
 
-@numba.njit(inline="always")
+@numba.njit(**INLINE_JIT)
 def _load_packet(valid, f, u, first, end, origins, dirs, tnear, tfar, time):
     """Fill a 16-ray packet with rays [first, min(first + 16, end)); returns the number of lanes."""
     lanes = min(PACKET, end - first)

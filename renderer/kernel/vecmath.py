@@ -17,21 +17,7 @@ from llvmlite import ir
 from numba import types
 from numba.extending import intrinsic
 
-_JIT = dict(cache=True, nogil=True, inline='always')
-
-# Options for the per-sample shading functions, which receive the scene tables (`SceneData`, a tuple
-# of ~27 arrays) and allocate nothing.  With numba's reference counting on, every call to such a
-# function increfs and decrefs each array of the tuple with atomic instructions on cache lines both
-# threads share: measured 16 % of the render time in NRT_incref/NRT_decref alone (perf, gallery.xml)
-# and poor 2-thread scaling.  `_nrt=False` compiles them without reference counting (they may
-# not create arrays); the caller (`render_pass`) owns the arrays for the whole pass.
-# The per-hit helpers called from `trace_path` (surface, colors, direct, sample_light, ...), and
-# `trace_path` itself in `integrator.render_tile`, are also
-# inlined at numba IR level (`inline='always'`): a call passes the 27-array tuple as ~190 scalar
-# arguments, and inlining them halved the time per sample outside Embree (single thread, interleaved:
-# quad + point light 1100 -> 520-780 ns/sample, Blinn-Phong 1120 -> 510-900) at the price of a longer
-# first compile (gallery: 54 -> 86 s, once; later runs load the cached kernel).
-SHADING_JIT = dict(cache=True, nogil=True, _nrt=False)
+from .jit import INLINE_JIT
 
 
 @intrinsic
@@ -52,48 +38,48 @@ def _bits_f32(typingctx, x):
     return sig, codegen
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def dot(a, b):
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def cross(a, b):
     return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def add(a, b):
     return (a[0] + b[0], a[1] + b[1], a[2] + b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def sub(a, b):
     return (a[0] - b[0], a[1] - b[1], a[2] - b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def scale(a, s):
     return (a[0] * s, a[1] * s, a[2] * s)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def mul(a, b):
     return (a[0] * b[0], a[1] * b[1], a[2] * b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def madd(a, b, s):
     """a + s * b"""
     return (a[0] + s * b[0], a[1] + s * b[1], a[2] + s * b[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def length(a):
     return math.sqrt(a[0] * a[0] + a[1] * a[1] + a[2] * a[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def normalize(a):
     """a / |a| ((0, 0, 1) for a zero vector).  One reciprocal and three products, not three
     divisions: the shading code is bound by the latency of square-root -> division chains
@@ -105,14 +91,14 @@ def normalize(a):
     return (0.0, 0.0, 1.0)
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def reflect(d, n):
     """Mirror direction of incident d about n."""
     k = 2.0 * dot(d, n)
     return (d[0] - k * n[0], d[1] - k * n[1], d[2] - k * n[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def onb(n):
     """Orthonormal tangents (t, b) of unit n (Duff et al. 2017, branchless)."""
     s = 1.0 if n[2] >= 0.0 else -1.0
@@ -123,14 +109,14 @@ def onb(n):
     return t, b
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def to_world(local, t, b, n):
     return (local[0] * t[0] + local[1] * b[0] + local[2] * n[0],
             local[0] * t[1] + local[1] * b[1] + local[2] * n[1],
             local[0] * t[2] + local[1] * b[2] + local[2] * n[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def xform_point(m, p):
     """m: (3, 4) float64 array view, column-vector convention."""
     return (m[0, 0] * p[0] + m[0, 1] * p[1] + m[0, 2] * p[2] + m[0, 3],
@@ -138,14 +124,14 @@ def xform_point(m, p):
             m[2, 0] * p[0] + m[2, 1] * p[1] + m[2, 2] * p[2] + m[2, 3])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def xform_dir(m, v):
     return (m[0, 0] * v[0] + m[0, 1] * v[1] + m[0, 2] * v[2],
             m[1, 0] * v[0] + m[1, 1] * v[1] + m[1, 2] * v[2],
             m[2, 0] * v[0] + m[2, 1] * v[1] + m[2, 2] * v[2])
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def cofactors(m):
     """Cofactor matrix C (row-major 9-tuple) and determinant of the 3x3 part L of m.
     C = det(L) L^-T, so L^-1 = C^T / det(L)."""
@@ -162,7 +148,7 @@ def cofactors(m):
     return (c00, c01, c02, c10, c11, c12, c20, c21, c22), det
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def cofactor_dir(m, v):
     """sign(det L) cof(L) v = |det L| L^-T v.  Normals transform with L^-T; the cofactor form needs
     no division, stays finite for near-singular L, and with the sign keeps a mirrored (det < 0)
@@ -174,7 +160,7 @@ def cofactor_dir(m, v):
             sgn * (c[6] * v[0] + c[7] * v[1] + c[8] * v[2]))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def inverse_xform(m, p, v):
     """Object-space point and direction of a world point p and direction v under m = [L | T]
     (L^-1 = cof(L)^T / det L)."""
@@ -195,7 +181,7 @@ OFFSET_FLOAT_SCALE = 1.0 / 65536.0
 OFFSET_ORIGIN = 1.0 / 32.0
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def _offset1(p, n, scale):
     pf = np.float32(p)
     if abs(pf) < OFFSET_ORIGIN * scale:
@@ -207,14 +193,14 @@ def _offset1(p, n, scale):
     return _bits_f32(np.int32(bits + of))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def offset_origin(p, n, scale):
     """float32-representable origin just off the surface at p on the side n points to (n unit).
     `scale` (a power of two <= 1, `SceneData.offset_scale[0]`) scales the near-origin fallback."""
     return (_offset1(p[0], n[0], scale), _offset1(p[1], n[1], scale), _offset1(p[2], n[2], scale))
 
 
-@nb.njit(**_JIT)
+@nb.njit(**INLINE_JIT)
 def lerp_xf(xf, row, time, out):
     """Instance matrix of `row` at normalised shutter time in [0, 1] (Embree lerps time steps the same
     way), written into out (3, 4)."""

@@ -3,11 +3,11 @@ renders with path, --integrator overrides, an unknown one is a usage error."""
 import subprocess
 import sys
 
-import numpy as np
 import pytest
-from pxr import Usd, UsdGeom, UsdLux
+from pxr import Usd
 
-from rtc.renderer.host.render import DEFAULT_DEPTH, RenderError, RenderOptions
+from rtc.renderer.errors import RenderError
+from rtc.renderer.options import DEFAULT_DEPTH, RenderOptions, resolve
 from rtc.renderer import description as D
 from rtc.renderer.usd.camera import read_render_settings
 
@@ -24,22 +24,23 @@ def test_unknown_integrator_is_a_usage_error(tmp_path):
 
 def test_defaults_resolve_per_integrator():
     s = D.RenderSettings()
-    assert RenderOptions().resolved(s).integrator == 'cook'           # hand-made descriptions
-    assert RenderOptions().resolved(s).max_depth == DEFAULT_DEPTH['cook'] == 4
+    assert resolve(RenderOptions(), s).integrator == 'cook'           # hand-made descriptions
+    assert resolve(RenderOptions(), s).max_depth == DEFAULT_DEPTH['cook'] == 4
     s.integrator = 'path'
-    o = RenderOptions().resolved(s)
+    o = resolve(RenderOptions(), s)
     assert (o.integrator, o.max_depth) == ('path', 8)
-    assert RenderOptions(integrator='cook').resolved(s).integrator == 'cook'
+    assert resolve(RenderOptions(integrator='cook'), s).integrator == 'cook'
+    assert resolve(RenderOptions(max_depth=2), s).max_depth == 2
+    s.integrator = 'whitted'                                         # an odd stage value: path
+    assert resolve(RenderOptions(), s).integrator == 'path'
     with pytest.raises(RenderError, match='unknown light strategy'):
-        RenderOptions(strategy='x').resolved(s)
+        resolve(RenderOptions(strategy='x'), s)
+    with pytest.raises(RenderError, match='unknown integrator'):
+        resolve(RenderOptions(integrator='x'), s)
 
 
-def test_usd_stage_defaults_to_path_and_compiled_course_stage_to_cook(tmp_path):
-    stage = Usd.Stage.CreateInMemory()
+def test_a_usd_stage_without_rtc_integrator_renders_with_path():
     assert read_render_settings(None, Usd.TimeCode.Default())[0].integrator == 'path'
-    from rtc.compiler import usd_writer
-    src = [p for p in usd_writer.__dict__ if p == '_render_settings']
-    assert src, 'the compiler writes render settings'
 
 
 def test_compiled_xml_records_cook(tmp_path):

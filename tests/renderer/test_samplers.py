@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from numba import njit
 
+from rtc.renderer.kernel import dimensions as dims
 from rtc.renderer.kernel import samplers as S
 
 ALL = (S.INDEPENDENT, S.STRATIFIED, S.CMJ, S.SOBOL)
@@ -37,13 +38,30 @@ def pts(sampler, spp, dim=0, pixel=3, seed=11, first=0, count=None):
 def test_constants_and_names():
     assert (S.INDEPENDENT, S.STRATIFIED, S.CMJ, S.SOBOL) == (0, 1, 2, 3)
     assert S.SAMPLER_NAMES == {'independent': 0, 'stratified': 1, 'cmj': 2, 'sobol': 3}
-    assert (S.DIM_PIXEL, S.DIM_LENS, S.DIM_TIME, S.DIM_BOUNCE0, S.DIMS_PER_BOUNCE) == (0, 1, 2, 3, 4)
-    assert S.bounce_dim(0, S.BOUNCE_LIGHT) == 3
-    assert S.bounce_dim(0, S.BOUNCE_FRESNEL) == 6
-    assert S.bounce_dim(2, S.BOUNCE_BSDF) == 3 + 8 + 2
     assert S.sampler_id('Sobol') == 3 and S.sampler_id(2) == 2
     with pytest.raises(ValueError):
         S.sampler_id('halton')
+
+
+def test_dimension_layout():
+    """The layout the images depend on (rtc 7f10cee's): pixel 0, lens 1, time 2, then per bounce b
+    a block of n_lights + 2 pairs starting at 3 + b (n_lights + 2): the lights, the BSDF pair, the
+    choice; blocks tile the pairs without gaps or overlaps, and the compiled functions agree."""
+    assert (dims.pixel_dim(), dims.lens_dim(), dims.time_dim()) == (0, 1, 2)
+    assert (dims.DIM_PIXEL, dims.DIM_LENS, dims.DIM_TIME, dims.DIM_BOUNCE0) == (0, 1, 2, 3)
+
+    @njit
+    def compiled(b, k, n):
+        return dims.light_dim(b, k, n), dims.bsdf_dim(b, n), dims.choice_dim(b, n)
+
+    for n in range(5):
+        for b in range(4):
+            start = 3 + b * (n + 2)
+            block = [dims.light_dim.py_func(b, k, n) for k in range(n)]
+            block += [dims.bsdf_dim.py_func(b, n), dims.choice_dim.py_func(b, n)]
+            assert block == list(range(start, start + n + 2)), (n, b)
+            for k in range(max(n, 1)):
+                assert compiled(b, k, n) == (start + k, start + n, start + n + 1)
 
 
 @pytest.mark.parametrize('sampler', ALL)
@@ -190,7 +208,7 @@ def elementary_intervals_ok(p, m, t=0):
     return all(k_per_cell(p, 2**a, 2**(m - t - a), 2**t) for a in range(m - t + 1))
 
 
-@pytest.mark.parametrize('dim', [S.DIM_PIXEL, 2, 5, 17])
+@pytest.mark.parametrize('dim', [dims.DIM_PIXEL, 2, 5, 17])
 def test_sobol_02_net_property(dim):
     """For 2^m points of pair 0 and of padded pairs, every elementary interval of volume 2^-m
     holds exactly one point, for every aligned block of the sequence."""
@@ -231,8 +249,8 @@ def test_sample_pixel_lens_is_pairs_0_and_1(sampler):
     """The fused pixel + lens call returns exactly the two `sample_2d` pairs it replaces."""
     for pixel, seed, spp in ((0, 11, 16), (12345, 2**31 + 7, 7), (99, 0, 64)):
         fused = pixel_lens_points(sampler, seed, pixel, spp, 3 * spp)
-        a = points_2d(sampler, seed, pixel, spp, S.DIM_PIXEL, 0, 3 * spp)
-        b = points_2d(sampler, seed, pixel, spp, S.DIM_LENS, 0, 3 * spp)
+        a = points_2d(sampler, seed, pixel, spp, dims.DIM_PIXEL, 0, 3 * spp)
+        b = points_2d(sampler, seed, pixel, spp, dims.DIM_LENS, 0, 3 * spp)
         assert np.array_equal(fused, np.concatenate([a, b], 1))
 
 
@@ -250,10 +268,10 @@ def test_sobol_packet_equals_the_scalar_sampler():
         cases.append((int(rng.integers(0, 2**32)), rng.integers(0, 2**28, 16).astype(np.uint32),
                       rng.integers(0, 2**32, 16, dtype=np.uint64).astype(np.uint32), int(rng.integers(1, 17))))
     for seed, pix, idx, n in cases:
-        S.sobol_packet(seed, S.DIM_PIXEL, pix, idx, n, 4, work, out)
+        S.sobol_packet(seed, dims.DIM_PIXEL, pix, idx, n, 4, work, out)
         for j in range(n):
             assert tuple(out[:, j]) == S.sample_pixel_lens(S.SOBOL, seed, int(pix[j]), int(idx[j]), 64)
-        for pair in (S.DIM_PIXEL, S.DIM_TIME, S.DIM_BOUNCE0 + 5):
+        for pair in (dims.DIM_PIXEL, dims.DIM_TIME, dims.DIM_BOUNCE0 + 5):
             out[:] = -1.0
             S.sobol_packet(seed, pair, pix, idx, n, 2, work, out)
             for j in range(n):
@@ -311,7 +329,7 @@ SLOPE_LIMITS = {  # (integrand, sampler): (min, max)
 
 
 @pytest.mark.parametrize('integrand,sampler', list(SLOPE_LIMITS))
-@pytest.mark.parametrize('dim', [S.DIM_PIXEL, S.bounce_dim(0, S.BOUNCE_BSDF)])
+@pytest.mark.parametrize('dim', [dims.DIM_PIXEL, dims.bsdf_dim(0, 2)])
 def test_convergence_slope_2d(integrand, sampler, dim):
     lo, hi = SLOPE_LIMITS[integrand, sampler]
     s, e = slope(sampler, integrand, dim)
@@ -320,9 +338,9 @@ def test_convergence_slope_2d(integrand, sampler, dim):
 
 def test_sobol_4d_beats_padded_samplers_on_depth_of_field():
     """Pixel x lens coupled edge: only the 4D Sobol' point keeps converging faster than MC."""
-    s_sobol, e_sobol = slope(S.SOBOL, 'dof', S.DIM_PIXEL)
-    s_cmj, e_cmj = slope(S.CMJ, 'dof', S.DIM_PIXEL)
-    s_ind, e_ind = slope(S.INDEPENDENT, 'dof', S.DIM_PIXEL)
+    s_sobol, e_sobol = slope(S.SOBOL, 'dof', dims.DIM_PIXEL)
+    s_cmj, e_cmj = slope(S.CMJ, 'dof', dims.DIM_PIXEL)
+    s_ind, e_ind = slope(S.INDEPENDENT, 'dof', dims.DIM_PIXEL)
     assert s_sobol <= -0.68 and -0.6 <= s_cmj <= -0.4 and -0.6 <= s_ind <= -0.4
     assert e_sobol[-1] < 0.6 * e_cmj[-1] < 0.6 * e_ind[-1]
 

@@ -1,0 +1,85 @@
+"""The column layouts of the flat tables the builder writes and the kernels read, declared once.
+
+Each table is a list of (field, width) pairs; the offsets, the row width and the module-level
+constants the kernels index with (`MF_KD`, `LF_RAD`, `C_FOCUS`, ...: prefix + field = offset of the
+field's first column) are generated from that list.  The host writes rows through the same
+declaration (`MATERIAL_F.write(row, KD=..., ...)`), so no column is numbered by hand anywhere.
+
+Tables (arrays of `SceneData`, and the camera table):
+
+* `MATERIAL_F` (MF_*, `mat_f` float32): colours and scalars of a material.
+* `MATERIAL_I` (MI_*, `mat_i` int32): the shading model and texture ids (-1 = none).
+* `LIGHT_F` (LF_*, `li_f` float64): light-to-world 3x4 (camera-relative), radiance, sizes, cone, area.
+* `TEXTURE_I` (TI_*, `tex_i` int64) and `TEXTURE_F` (TF_*, `tex_f` float32): where a texture's texels
+  are in `tex_data`, its size, channels and wrap modes; its scale and bias (rgba).
+* `CAMERA` (C_*, float64 vector): see `cameras.camera_table`.
+
+Enumerations stored in the tables: gprim kinds (GP_MESH, GP_SPHERE) and flags (GP_HAS_NORMALS,
+GP_HAS_UVS, bits of `gp_flags`), texture wrap modes (WRAP_*, by UsdUVTexture name in `WRAP`).
+"""
+from __future__ import annotations
+
+
+class Table:
+    """A row layout: named fields of given widths, packed in declaration order."""
+
+    def __init__(self, prefix: str, fields):
+        self.prefix = prefix
+        self.fields = tuple(fields)
+        self.offset, self.widths = {}, {}
+        width = 0
+        for name, w in self.fields:
+            self.offset[name] = width
+            self.widths[name] = w
+            width += w
+        self.width = width
+
+    def constants(self) -> dict:
+        """{'PREFIX_FIELD': offset of the field's first column}."""
+        return {f'{self.prefix}_{name}': off for name, off in self.offset.items()}
+
+    def write(self, row, **values) -> None:
+        """Store field values into one row (a 1-D array of `self.width` columns)."""
+        for name, v in values.items():
+            off = self.offset[name]
+            if self.widths[name] == 1:
+                row[off] = v
+            else:
+                row[off:off + self.widths[name]] = v
+
+
+MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROUGH', 1), ('IOR', 1),
+                          ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
+                          ('CLEARCOAT', 1), ('CC_ROUGH', 1)])
+MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1)])
+LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1)])
+TEXTURE_I = Table('TI', [('OFFSET', 1), ('WIDTH', 1), ('HEIGHT', 1), ('CHANNELS', 1), ('WRAP_S', 1),
+                         ('WRAP_T', 1)])
+TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4)])
+# camera: camera-to-world 3x4 at shutter open and close (camera-relative world: translation 0 at open;
+# M1 == M when the camera does not move), orthographic flag, half film width / height (over the focal
+# length for perspective), film offsets, lens radius, focus distance, clipping range, moving flag
+CAMERA = Table('C', [('M', 12), ('M1', 12), ('ORTHO', 1), ('HALF_W', 1), ('HALF_H', 1), ('OFF_X', 1),
+                     ('OFF_Y', 1), ('LENS', 1), ('FOCUS', 1), ('NEAR', 1), ('FAR', 1), ('MOVING', 1)])
+
+TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA)
+for _t in TABLES:
+    globals().update(_t.constants())
+MAT_F_COLS = MATERIAL_F.width
+MAT_I_COLS = MATERIAL_I.width
+LI_F_COLS = LIGHT_F.width
+TEX_I_COLS = TEXTURE_I.width
+TEX_F_COLS = TEXTURE_F.width
+CAM_COLS = CAMERA.width
+
+# gprim kinds (gp_kind) and flag bits (gp_flags)
+GP_MESH, GP_SPHERE = 0, 1
+GP_HAS_NORMALS, GP_HAS_UVS = 1, 2
+# texture wrap modes (tex_i[:, TI_WRAP_S / TI_WRAP_T]), by UsdUVTexture wrapS / wrapT token
+WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR, WRAP_BLACK = 0, 1, 2, 3
+WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'black': WRAP_BLACK}
+
+__all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE_F',
+           'CAMERA', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
+           'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_HAS_NORMALS',
+           'GP_HAS_UVS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']
