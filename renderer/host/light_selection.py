@@ -1,6 +1,7 @@
 """The lights as the path integrator samples them: one light per shading point, chosen by power
 from an alias table (Walker 1977; Vose 1991), so the cost of a sample does not grow with the number
-of lights; the list of light shapes that BSDF rays can meet; the dome's sampling tables.
+of lights; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
+O(log n) per ray; the cook integrator never builds it); the dome's sampling tables.
 
 Power estimates (only their ratios matter, and any positive choice keeps the estimator unbiased):
 point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
@@ -13,11 +14,11 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_AREA, LF_RADIUS
+from ..kernel.tables import LF_AREA, LF_H, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
 
 PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
-                                       'dome_cdf'])
+                                       'dome_cdf', 'shape_scene', 'geom_off', 'prim_light'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -58,8 +59,41 @@ def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_
     return np.where(np.isfinite(out) & (out > 0), out, 0.0)
 
 
-def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray) -> PathLights:
-    """The PathLights record of a built scene (li_f: the light table; bounds (2, 3) of the scene)."""
+def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
+    """(Embree scene or None, geom_off, prim_light) of the light shapes, for BSDF rays to find them in
+    O(log n): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
+    test `light_sampling.hit_shape` rejects the corners), spheres as sphere points; light of a hit =
+    prim_light[geom_off[geomID] + primID]."""
+    planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]
+    round_ = [k for k in shapes if desc.lights[k].type == D.SPHERE]
+    if not shapes:
+        return None, np.zeros(1, np.int64), np.zeros(1, np.int64)
+    meshes, spheres, geom_off, prim_light = [], [], [], []
+    if planar:
+        verts = []
+        for k in planar:
+            m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
+            half = (0.5 * li_f[k, LF_W], 0.5 * li_f[k, LF_H]) if desc.lights[k].type == D.RECT else \
+                (li_f[k, LF_RADIUS],) * 2
+            ex, ey = m[:, 0] * half[0], m[:, 1] * half[1]
+            verts += [m[:, 3] - ex - ey, m[:, 3] + ex - ey, m[:, 3] + ex + ey, m[:, 3] - ex + ey]
+        base = 4 * np.arange(len(planar))[:, None]
+        tris = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]], 1).reshape(-1, 3)
+        meshes.append((np.array(verts, np.float32), tris.astype(np.uint32)))
+        geom_off.append(0)
+        prim_light += [k for k in planar for _ in range(2)]
+    if round_:
+        spheres.append(np.array([[*li_f[k, LF_M:LF_M + 12].reshape(3, 4)[:, 3], li_f[k, LF_RADIUS]]
+                                 for k in round_], np.float32))
+        geom_off.append(len(prim_light))
+        prim_light += round_
+    scene = device.prototype_scene(meshes, spheres)
+    return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
+
+
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device) -> tuple:
+    """(PathLights record, the light-shape Embree scene to keep alive or None) of a built scene
+    (li_f: the light table; bounds (2, 3) of the scene; device: its Embree device)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
@@ -71,6 +105,8 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray) 
                 if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
     if not desc.lights:                      # no light at all: nothing is ever chosen (pmf unused)
         pmf[:] = 0.0
+    scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)
     return PathLights(prob=prob, alias=alias, pmf=pmf, shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
-                      dome_i=dome_i, dome_cdf=dome_cdf)
+                      dome_i=dome_i, dome_cdf=dome_cdf, shape_scene=scene.handle if scene else 0,
+                      geom_off=geom_off, prim_light=prim_light), scene

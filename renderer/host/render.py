@@ -81,7 +81,8 @@ class Renderer:
         """The path integrator's light record (built on its first use: cook renders never build it)."""
         if self._lights is None:
             d = self.built.data
-            self._lights = path_lights(self.desc, d.li_f, self.built.top.bounds())
+            self._lights, self._light_scene = path_lights(self.desc, d.li_f, self.built.top.bounds(),
+                                                          self.built.device)
         return self._lights
 
     def _pass(self, o, ctab, use_lens, use_time, s0, s1, film, counters, ray_record):
@@ -99,6 +100,9 @@ class Renderer:
                     film.sum, counters, ray_record)
 
     def close(self):
+        if getattr(self, '_light_scene', None) is not None:
+            self._light_scene.close()
+            self._light_scene = None
         self.built.close()
 
     def __enter__(self):

@@ -27,6 +27,7 @@ from .. import description as D
 from .lights import dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .trace import GEOM_ID, PRIM_ID, TFAR, intersect1
 from .vecmath import cross, dot, normalize, onb, sub, to_world
 INF = math.inf
 ZERO = (0.0, 0.0, 0.0)
@@ -273,8 +274,9 @@ def hit_shape(S, k, o, d, tmax, p0):
 
 
 @nb.njit(**_JIT)
-def area_emission(S, L, ray, tmax, prev):
-    """MIS-weighted radiance of the light shapes crossed by ray = (o, d) before tmax.
+def area_emission(S, L, ray, tmax, prev, f, u):
+    """MIS-weighted radiance of the light shapes crossed by ray = (o, d) before tmax, found in the
+    light-shape scene (one query per shape crossed, plus one); f, u: a ray buffer of its own.
     prev = (p0, n0, bsdf pdf, mis mode): the vertex the ray left, its normal, the pdf with which
     its BSDF drew d, and 0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe,
     or BSDF sampling alone), 2 = weight 0 (next-event estimation alone)."""
@@ -285,10 +287,17 @@ def area_emission(S, L, ray, tmax, prev):
     b = 0.0
     if mode == 2:
         return ZERO
-    for j in range(L.shapes.shape[0]):
-        k = L.shapes[j]
+    tn = 0.0
+    for _ in range(L.prim_light.shape[0]):
+        if not intersect1(L.shape_scene, f, u, o[0], o[1], o[2], d[0], d[1], d[2], tn, tmax, 0.0):
+            break
+        te = float(f[TFAR])
+        tn = te + 1e-5 * max(te, 1e-3)                 # the next query starts past this shape
+        k = L.prim_light[L.geom_off[u[GEOM_ID]] + u[PRIM_ID]]
         t, pl = hit_shape(S, k, o, d, tmax, p0)
-        if t < 0.0:
+        # the exact test: the emitting side, inside the disk, and this crossing (a sphere's far side
+        # is a second Embree hit of the same front point)
+        if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
             continue
         w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
         r += w * S.li_f[k, LF_RAD]

@@ -109,9 +109,10 @@ def _add(L, T, c):
 def trace_path(S, L, scene, ray, smp, opts, ws):
     """Radiance along the camera ray ray = (o, d, time), already traced as lane ws[7] of the packet
     (ws[5], ws[6]); smp = (sampler, seed, pixel, index, spp); opts = (max_depth, strategy);
-    ws = (f, u, m, m32, counts, cf, cu, lane): scratch and counters."""
+    ws = (f, u, m, m32, counts, cf, cu, lane, lf, lu): scratch and counters (lf, lu: the light-shape
+    queries' ray buffer)."""
     max_depth, strategy = opts
-    f, u, m, m32, counts, cf, cu, lane = ws
+    f, u, m, m32, counts, cf, cu, lane, lf, lu = ws
     sampler, seed, pixel, index, spp = smp
     o, d, time = ray
     osc = S.offset_scale[0]
@@ -132,7 +133,7 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
             counts[RAYS_SECONDARY] += 1
         tmax = float(f[TFAR]) if hit else np.inf
         if L.shapes.shape[0] > 0:
-            Lo = _add(Lo, T, area_emission(S, L, (o, d), tmax, prev))
+            Lo = _add(Lo, T, area_emission(S, L, (o, d), tmax, prev, lf, lu))
         if not hit:
             Lo = _add(Lo, T, escaped_emission(S, L, d, prev))
             break
@@ -230,11 +231,11 @@ def _camera_samples(cam, frame, opts, lanes, n):
 @nb.njit(**SHADING_JIT)
 def path_tile(S, L, scene, cam, box, frame, opts, ws, accum):
     """Add samples [s0, s1) of the pixels of box = (x0, y0, x1, y1) to accum; (pixel, sample) pairs
-    pixel-major, 16 per camera packet.  ws = (f, u, m, m32, counts, packet, lanes)."""
+    pixel-major, 16 per camera packet.  ws = (f, u, m, m32, counts, packet, lanes, lf, lu)."""
     x0, y0, x1, y1 = box
     width, height, s0, s1, spp = frame
     sampler, filt, seed, max_depth, use_lens, use_time, strategy = opts
-    f, u, m, m32, counts, packet, lanes = ws
+    f, u, m, m32, counts, packet, lanes, lf, lu = ws
     cvalid, cf, cu = packet
     lane_o, lane_d, lane_ts, lane_id, lane_u, lane_f, lane_pi, work = lanes
     total = (x1 - x0) * (y1 - y0) * (s1 - s0)
@@ -270,7 +271,7 @@ def path_tile(S, L, scene, cam, box, frame, opts, ws, accum):
             c = trace_path(S, L, scene, ((lane_o[0, j], lane_o[1, j], lane_o[2, j]),
                                          (lane_d[0, j], lane_d[1, j], lane_d[2, j]), lane_ts[0, j]),
                            (sampler, seed, lane_id[0, j], lane_id[1, j], spp), (max_depth, strategy),
-                           (f, u, m, m32, counts, cf, cu, j))
+                           (f, u, m, m32, counts, cf, cu, j, lf, lu))
             if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
                 x = lane_id[2, j]
                 y = lane_id[3, j]
@@ -294,11 +295,12 @@ def render_pass_path(S, L, scene, cam, frame, opts, accum, counters):
     for ti in nb.prange(ntiles):
         tile = (ti * stride) % ntiles
         f, u = new_ray_buffer()
+        lf, lu = new_ray_buffer()
         counts = np.zeros(N_COUNTERS, np.int64)
         packet, lanes = new_path_scratch()
         x0 = (tile % ntx) * TILE
         y0 = (tile // ntx) * TILE
         path_tile(S, L, scene, cam, (x0, y0, min(x0 + TILE, width), min(y0 + TILE, height)), frame, opts,
-                  (f, u, np.empty((3, 4)), np.empty(12, np.float32), counts, packet, lanes), accum)
+                  (f, u, np.empty((3, 4)), np.empty(12, np.float32), counts, packet, lanes, lf, lu), accum)
         for k in range(N_COUNTERS):
             counters[tile, k] += counts[k]
