@@ -148,7 +148,7 @@ class Rtc:
     def __init__(self, width, height, dof):
         from rtc.renderer.host.render import RenderOptions, Renderer
         from rtc.renderer.usd.stage import read_stage
-        self.opts = dict(width=width, height=height, sampler='sobol', filter='box', max_depth=0)
+        self.opts = dict(width=width, height=height, sampler='sobol', filter='box', max_depth=0, integrator='cook')
         self.RenderOptions = RenderOptions
         self.r = Renderer(read_stage(rtc_stage(width, height, dof), camera_path='/World/Camera'))
 
@@ -268,6 +268,50 @@ def run(case, a):
     return curves
 
 
+from bench_mitsuba_path import PathMitsuba, PathRtc, compare_converged  # noqa: E402  (path cases)
+
+
+def run_path(case, a):
+    """Both renderers' path tracers on `case` ('cornell' or 'glossy'): converged agreement (cornell) or
+    time to equal relative RMSE and error slopes (glossy)."""
+    rs = [PathRtc(case, a.width, a.height), PathMitsuba(case, a.width, a.height)]
+    if case == 'cornell':
+        return compare_converged(rs, a.ref_spp)
+    return run_curves(case, a, rs)
+
+
+def run_curves(case, a, rs):
+    refs = {r.name: reference(r, a.ref_spp) for r in rs}
+    print(f'\n== {case}: {a.width}x{a.height}, references {a.ref_spp} spp '
+          f'(mean rtc {refs["rtc"].mean():.4f}, mitsuba {refs["mitsuba"].mean():.4f})')
+    curves = {r.name: ([], []) for r in rs}
+    for spp in a.spps:
+        row = {}
+        for r in rs:
+            errs, times = [], []
+            r.render(spp, 0)
+            for k in range(a.repeats):
+                img, dt = r.render(spp, 1 + k)
+                errs.append(rel_rmse(img, refs[r.name]))
+                times.append(dt)
+            curves[r.name][0].append(float(np.sqrt(np.mean(np.square(errs)))))
+            curves[r.name][1].append(statistics.median(times))
+            row[r.name] = (curves[r.name][0][-1], curves[r.name][1][-1])
+        print(f'  spp {spp:4d}: rtc relRMSE {row["rtc"][0]:.4f} in {row["rtc"][1]:.3f} s '
+              f'({row["rtc"][1] / spp * 1e3:.1f} ms/spp)   mitsuba relRMSE {row["mitsuba"][0]:.4f} in '
+              f'{row["mitsuba"][1]:.3f} s ({row["mitsuba"][1] / spp * 1e3:.1f} ms/spp)', flush=True)
+    for n, (e, t) in curves.items():
+        k = np.polyfit(np.log(a.spps), np.log(e), 1)[0]
+        print(f'  {n}: error slope over spp {a.spps[0]}-{a.spps[-1]}: {k:.3f}')
+    e_m = curves['mitsuba'][0]
+    for target in e_m:
+        tt = {n: time_to_error(*curves[n], target) for n in curves}
+        if all(tt.values()):
+            print(f'  time to relRMSE {target:.4f}: rtc {tt["rtc"]:.3f} s, mitsuba {tt["mitsuba"]:.3f} s, '
+                  f'rtc/mitsuba = {tt["rtc"] / tt["mitsuba"]:.2f}')
+    return curves
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--width', type=int, default=320)
@@ -276,10 +320,11 @@ def main(argv=None) -> int:
     ap.add_argument('--spps', type=int, nargs='+', default=[1, 4, 16, 64, 256])
     ap.add_argument('--targets', type=float, nargs='+', default=[0.10, 0.05, 0.02])
     ap.add_argument('--repeats', type=int, default=3)
-    ap.add_argument('--cases', nargs='+', default=['soft_shadows', 'dof'])
+    ap.add_argument('--cases', nargs='+', default=['soft_shadows', 'dof'],
+                    help='soft_shadows, dof (cook vs direct); cornell, glossy (path vs path)')
     a = ap.parse_args(argv)
     for case in a.cases:
-        run(case, a)
+        (run_path if case in ('cornell', 'glossy') else run)(case, a)
     return 0
 
 

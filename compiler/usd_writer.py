@@ -421,6 +421,8 @@ def _render_settings(stage: Usd.Stage, scene: Scene, options: CompileOptions, ca
         prim.CreateAttribute("rtc:samplesPerPixel", _T.Int, custom=False).Set(options.spp)
     # the course's renderers write linear values straight into their 8-bit PNGs (spec section 12)
     prim.CreateAttribute("rtc:imageEncoding", _T.Token, custom=False).Set("linear")
+    # course scenes are lit and shaded for the course's integrator (README, "Integrators")
+    prim.CreateAttribute("rtc:integrator", _T.Token, custom=False).Set("cook")
 
 
 # ----------------------------------------------------------------------------- bulk (Sdf level)

@@ -179,6 +179,9 @@ class RenderSettings:
     camera_path: Optional[str] = None
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
+    integrator: Optional[str] = None        # custom rtc:integrator: 'cook' (compiled course scenes) or 'path'
+                                            # (what the reader gives any other stage); None (descriptions
+                                            # built by hand) = cook
     path: Optional[str] = None              # the settings prim, for messages
     encoding: Optional[str] = None          # 8/16-bit image encoding the stage asks for (rtc:imageEncoding)
 

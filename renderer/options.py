@@ -47,14 +47,20 @@ class RenderOptions:
     depth_of_field: Optional[bool] = None
     motion_blur: Optional[bool] = None
     encoding: Optional[str] = None       # 8/16-bit images: 'srgb' | 'linear' (course scenes ask for linear)
+    integrator: Optional[str] = None     # 'path' | 'cook'; None: the stage's rtc:integrator (INTEGRATORS)
+    strategy: Optional[str] = None       # path only: 'mis' | 'nee' | 'bsdf' (tests and benchmarks)
 
 
 #: the options that determine the image (a checkpoint continues only a render with the same ones)
-IMAGE_OPTIONS = ('width', 'height', 'spp', 'sampler', 'filter', 'seed', 'max_depth')
+IMAGE_OPTIONS = ('width', 'height', 'spp', 'sampler', 'filter', 'seed', 'max_depth', 'integrator', 'strategy')
+INTEGRATORS = ('path', 'cook')
+STRATEGIES = ('mis', 'nee', 'bsdf')
+#: bounces by default: path counts them as pbrt (1 = direct light only); cook, the course's specular depth
+DEFAULT_DEPTH = {'path': 8, 'cook': 4}
 
 #: values of the options a stage's render settings do not set
-DEFAULTS = dict(sampler='sobol', filter='gaussian', seed=0, max_depth=4, pass_seconds=1.0,
-                depth_of_field=True, motion_blur=True)
+DEFAULTS = dict(sampler='sobol', filter='gaussian', seed=0, pass_seconds=1.0, depth_of_field=True,
+                motion_blur=True, strategy='mis')
 
 
 def resolve(asked: Optional[RenderOptions] = None, settings: Optional[RenderSettings] = None) -> RenderOptions:
@@ -72,8 +78,19 @@ def resolve(asked: Optional[RenderOptions] = None, settings: Optional[RenderSett
     if asked.spp is None:
         _check(_spp_error(spp), stage + ' rtc:samplesPerPixel')
     rest = {k: getattr(asked, k) if getattr(asked, k) is not None else v for k, v in DEFAULTS.items()}
+    integrator = asked.integrator or integrator_of(settings)
+    max_depth = asked.max_depth if asked.max_depth is not None else DEFAULT_DEPTH[integrator]
     encoding = asked.encoding or settings.encoding or 'srgb'
-    return replace(asked, width=int(width), height=int(height), spp=int(spp), encoding=encoding, **rest)
+    return replace(asked, width=int(width), height=int(height), spp=int(spp), integrator=integrator,
+                   max_depth=int(max_depth), encoding=encoding, **rest)
+
+
+def integrator_of(settings: RenderSettings) -> str:
+    """The stage's integrator: its rtc:integrator (the stage reader gives 'path' to every stage that
+    does not say 'cook'); descriptions built by hand (None) render with cook."""
+    if settings.integrator in INTEGRATORS:
+        return settings.integrator
+    return 'cook' if settings.integrator is None else 'path'
 
 
 def image_size(width: Optional[int], height: Optional[int], settings: RenderSettings) -> tuple[int, int]:
@@ -101,6 +118,10 @@ def validate(o: RenderOptions) -> None:
         _check(f"unknown sampler '{o.sampler}' (choose from {', '.join(SAMPLER_NAMES)})")
     if o.filter is not None and o.filter not in FILTER_NAMES:
         _check(f"unknown filter '{o.filter}' (choose from {', '.join(FILTER_NAMES)})")
+    if o.integrator is not None and o.integrator not in INTEGRATORS:
+        _check(f"unknown integrator '{o.integrator}' (choose from {', '.join(INTEGRATORS)})")
+    if o.strategy is not None and o.strategy not in STRATEGIES:
+        _check(f"unknown light strategy '{o.strategy}' (choose from {', '.join(STRATEGIES)})")
     if o.max_depth is not None and not 0 <= o.max_depth <= MAX_DEPTH:
         _check(f'max depth {o.max_depth} is out of range (0..{MAX_DEPTH})')
     if o.seed is not None and not 0 <= o.seed <= MAX_SEED:

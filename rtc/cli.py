@@ -92,7 +92,11 @@ def _resumed_film(ckpt_path: Path, resolved):
 @renderer_option('--sampler', key='sampler')
 @renderer_option('--filter', 'filter', key='filter', help='Pixel reconstruction filter.')
 @renderer_option('--seed', key='seed', type=int)
-@renderer_option('--max-depth', key='max_depth', type=int, help='Specular bounces (course default 4).')
+@click.option('--max-depth', type=int, help='Bounces (default: 8 for path, counted as pbrt: 1 = direct light only; '
+              '4 for cook, the course\'s specular depth).')
+@renderer_option('--integrator', key='integrator',
+                 help='path: unbiased path tracing with MIS; cook: the course\'s distribution ray tracer '
+                 '(default: cook for scenes compiled from course XML, path for any other USD).')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',

@@ -36,7 +36,9 @@ from .scene_input import checked_options, load_scene
 @click.option('--height', type=int, help='Image height (default: the scene render settings; only --width '
                                           'given: keeps their aspect).')
 @renderer_option('--filter', 'filter_', key='filter')
-@renderer_option('--max-depth', key='max_depth', type=int)
+@click.option('--max-depth', type=int, help='Bounces (default: 8 for path, 4 for cook).')
+@renderer_option('--integrator', key='integrator',
+                 help='Default: cook for scenes compiled from course XML, path for any other USD.')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--metric', type=click.Choice(['rmse', 'relmse']), default='rmse', show_default=True,
               help='Error plotted and fitted (both are always in the CSV).')
@@ -44,7 +46,8 @@ from .scene_input import checked_options, load_scene
               help='Fit slopes over points with spp >= this (all points if fewer than two qualify).')
 @click.option('-q', '--quiet', is_flag=True)
 def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, reference_spp, reference_seeds,
-                 reference_sampler, no_cache, width, height, filter_, max_depth, threads, metric, fit_from, quiet):
+                 reference_sampler, no_cache, width, height, filter_, max_depth, integrator, threads, metric, fit_from,
+                 quiet):
     """Error (RMSE and relMSE against a reference) of SCENE rendered at 1, 2, 4, ... --max-spp samples
     per pixel with each sampler, against spp and against wall-clock seconds."""
     from .renderer.host import converge as C
@@ -65,7 +68,8 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
         _fail(f'{prefix}: directory {prefix.parent} does not exist')
     log = (lambda s: None) if quiet else (lambda s: click.echo(s, err=True))
 
-    asked = checked_options(width=width, height=height, filter=filter_, max_depth=max_depth, threads=threads)
+    asked = checked_options(width=width, height=height, filter=filter_, max_depth=max_depth,
+                             integrator=integrator, threads=threads)
     desc = load_scene(scene, options=asked, quiet=quiet)
     o = desc.options
     ref_img, cache = None, None
@@ -78,7 +82,7 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
             _fail(f'{reference} is {ref_img.shape[1]}x{ref_img.shape[0]}, the render is {o.width}x{o.height}')
     elif not no_cache:
         key = C.reference_key(Path(scene).read_bytes(), o.width, o.height, ref_spp, reference_seeds,
-                              reference_sampler, filter_, max_depth)
+                              reference_sampler, filter_, o.max_depth, o.integrator)
         cache = C.reference_cache_path(scene, key)
 
     def on_point(p):
@@ -86,7 +90,8 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
             f'relMSE {p.relmse:.4e}')
 
     points, _ = C.converge(desc, samplers=names, max_spp=max_spp, min_spp=min_spp, seeds=seeds,
-                           width=o.width, height=o.height, max_depth=max_depth, filter=filter_, threads=threads,
+                           width=o.width, height=o.height, max_depth=o.max_depth, integrator=o.integrator, filter=filter_,
+                           threads=threads,
                            reference=ref_img, reference_spp=ref_spp, reference_chunks=reference_seeds,
                            reference_sampler=reference_sampler, reference_cache=cache, on_point=on_point, log=log)
     summary = C.summarize(points)

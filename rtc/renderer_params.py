@@ -28,8 +28,8 @@ class RendererCommand(click.Command):
     def parse_args(self, ctx, args):
         from .renderer.kernel.filters import FILTER_NAMES
         from .renderer.kernel.samplers import SAMPLER_NAMES
-        from .renderer.options import DEFAULTS
-        registries = {'sampler': SAMPLER_NAMES, 'filter': FILTER_NAMES}
+        from .renderer.options import DEFAULTS, INTEGRATORS
+        registries = {'sampler': SAMPLER_NAMES, 'filter': FILTER_NAMES, 'integrator': INTEGRATORS}
         for p in self.params:
             key = getattr(p, 'renderer_key', None)
             if key in registries:

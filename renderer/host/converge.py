@@ -99,12 +99,12 @@ def fit_slope(x, y) -> float:
 
 # --------------------------------------------------------------------------- reference
 def reference_key(scene_bytes: bytes, width: int, height: int, spp: int, chunks: int, sampler: str,
-                  filter: str, max_depth: int) -> str:
+                  filter: str, max_depth: int, integrator: str = 'cook') -> str:
     """Hash of everything the reference image depends on (scene file content + settings)."""
     h = hashlib.sha256()
     h.update(scene_bytes)
-    h.update(repr(('rtc-ref-v1', int(width), int(height), int(spp), int(chunks), sampler, filter,
-                   int(max_depth))).encode())
+    key = ('rtc-ref-v1', int(width), int(height), int(spp), int(chunks), sampler, filter, int(max_depth))
+    h.update(repr(key if integrator == 'cook' else (*key, integrator)).encode())
     return h.hexdigest()[:16]
 
 
@@ -279,12 +279,14 @@ def plot(summary: list[Summary], path, metric: str = 'rmse', fit_from: int = 1, 
 
 
 def converge(desc: D.SceneDescription, *, samplers=SAMPLERS, max_spp: int = 64, min_spp: int = 1, seeds: int = 1,
-             width: int | None = None, height: int | None = None, max_depth: int = 4, filter: str = 'gaussian',
+             width: int | None = None, height: int | None = None, max_depth: int | None = None,
+             integrator: str | None = None, filter: str = 'gaussian',
              threads: int | None = None, reference: np.ndarray | None = None, reference_spp: int | None = None,
              reference_chunks: int = 4, reference_sampler: str = 'sobol', reference_cache: Path | None = None,
              on_point=None, log=lambda s: None) -> tuple[list[Point], np.ndarray]:
     """The whole study on one built scene: (points, reference image)."""
-    base = RenderOptions(width=width, height=height, filter=filter, max_depth=max_depth, threads=threads,
+    base = RenderOptions(width=width, height=height, filter=filter, max_depth=max_depth, integrator=integrator,
+                         threads=threads,
                          pass_seconds=1e9)
     with Renderer(desc, threads=threads) as r:
         if reference is None:

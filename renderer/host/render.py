@@ -25,6 +25,9 @@ from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECO
                                  n_tiles, render_pass)
 from ..kernel.records import PassParams
 from ..kernel.samplers import SAMPLER_NAMES
+from ..kernel.path import STRATEGIES, render_pass_path
+from .light_selection import path_lights
+
 
 __all__ = ['RenderError', 'RenderOptions', 'RenderResult', 'RenderStats', 'Renderer', 'render']
 
@@ -59,7 +62,8 @@ class RenderResult:
         s = self.stats
         return {'rtc:spp': self.film.spp, 'rtc:sampler': self.options.sampler, 'rtc:filter': self.options.filter,
                 'rtc:seed': self.options.seed, 'rtc:seconds': round(s.seconds, 4), 'rtc:rays': s.rays,
-                'rtc:maxDepth': self.options.max_depth, 'rtc:interrupted': int(self.interrupted)}
+                'rtc:maxDepth': self.options.max_depth, 'rtc:integrator': self.options.integrator,
+                'rtc:interrupted': int(self.interrupted)}
 
 
 class Renderer:
@@ -76,8 +80,33 @@ class Renderer:
         if reuse is not None:
             reuse.close()
         self.build_seconds = _time.perf_counter() - t0
+        self._lights = None
+
+    def path_lights(self):
+        """The path integrator's light record (built on its first use: cook renders never build it)."""
+        if self._lights is None:
+            d = self.built.data
+            self._lights, self._light_scene = path_lights(self.desc, d.li_f, self.built.top.bounds(),
+                                                          self.built.device)
+        return self._lights
+
+    def _pass(self, o, ctab, use_lens, use_time, s0, s1, film, counters, ray_record):
+        """Add samples [s0, s1) of every pixel to the film's sum with the integrator of options `o`."""
+        if o.integrator == 'path':
+            if ray_record is not None:
+                raise RenderError('ray recording is available for the cook integrator only')
+            render_pass_path(self.built.data, self.path_lights(), self.built.handle, ctab,
+                             (o.width, o.height, s0, s1, o.spp),
+                             (SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
+                              STRATEGIES[o.strategy]), film.sum, counters)
+            return
+        render_pass(self.built.data, self.built.handle, self.pass_params(o, s0, s1, ctab, use_lens, use_time),
+                    film.sum, counters, ray_record)
 
     def close(self):
+        if getattr(self, '_light_scene', None) is not None:
+            self._light_scene.close()
+            self._light_scene = None
         self.built.close()
 
     def __enter__(self):
@@ -124,8 +153,7 @@ class Renderer:
         # an empty pass (no samples) loads the cached kernel - or compiles it on the very first run -
         # so that the render's time and ray rate measure rendering only
         t0 = _time.perf_counter()
-        render_pass(self.built.data, self.built.handle, self.pass_params(o, s, s, ctab, use_lens, use_time),
-                    film.sum, counters, ray_record)
+        self._pass(o, ctab, use_lens, use_time, s, s, film, counters, ray_record)
         stats.kernel_seconds = _time.perf_counter() - t0
         t_start = _time.perf_counter()
         step = 1
@@ -135,8 +163,7 @@ class Renderer:
                 break
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
-            render_pass(self.built.data, self.built.handle, self.pass_params(o, s, s1, ctab, use_lens, use_time),
-                        film.sum, counters, ray_record)
+            self._pass(o, ctab, use_lens, use_time, s, s1, film, counters, ray_record)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))

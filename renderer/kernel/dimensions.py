@@ -17,6 +17,10 @@ alone decides the pair numbers; the integrator and the tests ask it:
 The functions return int64, never a literal: a pair number passed as a compile-time constant would
 make numba compile the sampler once per constant (measured: `sample_2d` compiled 4 times, a quarter of
 the cold compile).
+
+The path integrator (`path.py`) draws one light per vertex, so its block per path vertex v has a fixed
+size, PATH_PAIRS, whatever the number of lights: path_dim(v, P_*) for the light point (2D), the light
+choice, the BSDF direction (2D), the lobe choice (also the opacity choice) and Russian roulette.
 """
 import numba as nb
 import numpy as np
@@ -66,3 +70,13 @@ def bsdf_dim(bounce, n_lights):
 def choice_dim(bounce, n_lights):
     """Pair (used as 1D) of the discrete choices at bounce `bounce`."""
     return DIM_BOUNCE0 + bounce * dims_per_bounce(n_lights) + n_lights + 1
+
+
+PATH_PAIRS = 5
+P_LIGHT, P_CHOICE, P_BSDF, P_LOBE, P_RR = range(PATH_PAIRS)
+
+
+@nb.njit(**INLINE_JIT)
+def path_dim(vertex, offset):
+    """Pair of `offset` (P_*) at path vertex `vertex` (0 = the camera ray's hit) of the path integrator."""
+    return DIM_BOUNCE0 + PATH_PAIRS * vertex + offset

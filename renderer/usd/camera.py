@@ -37,9 +37,10 @@ def render_settings_prim(stage: Usd.Stage, candidates: list[Usd.Prim]) -> Option
 
 def read_render_settings(prim: Optional[Usd.Prim], time: Usd.TimeCode) -> tuple[RenderSettings, tuple, str]:
     """(settings, background colour, aspect-ratio conform policy) from a RenderSettings prim
-    (defaults when None): resolution, camera, custom ``rtc:samplesPerPixel``, ``rtc:imageEncoding``
-    and ``rtc:backgroundColor``, disableMotionBlur, disableDepthOfField."""
+    (defaults when None): resolution, camera, custom ``rtc:samplesPerPixel``, ``rtc:imageEncoding``,
+    ``rtc:backgroundColor`` and ``rtc:integrator``, disableMotionBlur, disableDepthOfField."""
     settings, background, policy = RenderSettings(), (0.0, 0.0, 0.0), UsdRender.Tokens.expandAperture
+    settings.integrator = 'path'            # USD renders with path unless the stage says otherwise
     if prim is None:
         return settings, background, policy
     rs = UsdRender.Settings(prim)
@@ -56,6 +57,9 @@ def read_render_settings(prim: Optional[Usd.Prim], time: Usd.TimeCode) -> tuple[
     encoding = prim.GetAttribute('rtc:imageEncoding')
     if encoding and encoding.Get(time) in ('srgb', 'linear'):
         settings.encoding = str(encoding.Get(time))
+    integrator = prim.GetAttribute('rtc:integrator')
+    if integrator and integrator.Get(time) is not None:
+        settings.integrator = str(integrator.Get(time))
     bg = prim.GetAttribute('rtc:backgroundColor')
     if bg and bg.Get(time) is not None:
         background = tuple(float(x) for x in bg.Get(time))

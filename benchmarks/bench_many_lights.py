@@ -1,0 +1,118 @@
+"""Time per sample of the path integrator against the number of lights (issue 13, "many lights").
+
+    python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--repeats 3]
+
+A USD stage: a floor, a 10 x 10 grid of instanced lamp prototypes (native instancing: each prototype
+holds a small box and a RectLight, so 100 of the lights are inside instances) plus free point and
+rect lights up to the requested count, half each; against the same stage with one rect light.
+Whole renders alternate (median of `--repeats`), path integrator, D = 3, 320 x 240.  Reported:
+seconds per sample per pixel for each, their ratio (issue target <= 2), and the relative RMSE of the
+one-light render against a reference of itself and of the many-light render against its own
+reference (noise of the dominant light).
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import sys
+import time
+
+import numpy as np
+
+
+def stage(n_lights: int):
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+    mat = UsdShade.Material.Define(st, '/Looks/Grey')
+    sh = UsdShade.Shader.Define(st, '/Looks/Grey/Surface')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.6, 0.6, 0.6))
+    sh.CreateInput('roughness', Sdf.ValueTypeNames.Float).Set(0.4)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    floor = UsdGeom.Mesh.Define(st, '/World/Floor')
+    floor.CreatePointsAttr([(-20, 0, -20), (20, 0, -20), (20, 0, 20), (-20, 0, 20)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    floor.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
+    UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(mat)
+    main = UsdLux.RectLight.Define(st, '/World/Main')             # the dominant light
+    main.CreateWidthAttr(3.0)
+    main.CreateHeightAttr(3.0)
+    main.CreateIntensityAttr(20.0)
+    UsdGeom.Xformable(main).AddTranslateOp().Set(Gf.Vec3d(0, 6, 0))
+    UsdGeom.Xformable(main).AddRotateXOp().Set(-90.0)
+    rest = n_lights - 1
+    if rest > 0:
+        proto = UsdGeom.Xform.Define(st, '/Lamp')
+        box = UsdGeom.Cube.Define(st, '/Lamp/Box')
+        box.CreateSizeAttr(0.2)
+        UsdShade.MaterialBindingAPI.Apply(box.GetPrim()).Bind(mat)
+        lamp = UsdLux.RectLight.Define(st, '/Lamp/Light')
+        lamp.CreateWidthAttr(0.2)
+        lamp.CreateHeightAttr(0.2)
+        lamp.CreateIntensityAttr(2.0)
+        UsdGeom.Xformable(lamp).AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
+        UsdGeom.Xformable(lamp).AddRotateXOp().Set(-90.0)
+        n_inst = min(100, rest)
+        for k in range(n_inst):
+            p = st.DefinePrim(f'/World/Lamps/L{k}')
+            p.GetReferences().AddInternalReference('/Lamp')
+            p.SetInstanceable(True)
+            UsdGeom.Xformable(p).AddTranslateOp().Set(Gf.Vec3d(-9 + 2 * (k % 10), 0.1, -9 + 2 * (k // 10)))
+        rng = np.random.default_rng(1)
+        for k in range(rest - n_inst):
+            pos = Gf.Vec3d(*rng.uniform([-15, 1, -15], [15, 4, 15]))
+            if k % 2:
+                l = UsdLux.SphereLight.Define(st, f'/World/Free/P{k}')
+                l.CreateTreatAsPointAttr(True)
+            else:
+                l = UsdLux.RectLight.Define(st, f'/World/Free/R{k}')
+                l.CreateWidthAttr(0.3)
+                l.CreateHeightAttr(0.3)
+            l.CreateIntensityAttr(0.5)
+            UsdGeom.Xformable(l).AddTranslateOp().Set(pos)
+            if not k % 2:
+                UsdGeom.Xformable(l).AddRotateXOp().Set(-90.0)
+    cam = UsdGeom.Camera.Define(st, '/World/Camera')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 8, 16))
+    cam.AddRotateXOp().Set(-28.0)
+    cam.CreateFocalLengthAttr(30.0)
+    rs = UsdRender.Settings.Define(st, '/Render/Settings')
+    rs.CreateResolutionAttr(Gf.Vec2i(320, 240))
+    return st
+
+
+def main(argv=None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--lights', type=int, default=1000)
+    ap.add_argument('--spp', type=int, default=8)
+    ap.add_argument('--repeats', type=int, default=3)
+    a = ap.parse_args(argv)
+    from rtc.renderer.host.render import RenderOptions, Renderer
+    from rtc.renderer.usd.stage import read_stage
+    rs = {}
+    for n in (1, a.lights):
+        desc = read_stage(stage(n), camera_path='/World/Camera')
+        types = {}
+        for l in desc.lights:
+            types[l.type] = types.get(l.type, 0) + 1
+        print(f'{n} requested: {len(desc.lights)} lights read (by type {types}), warnings {desc.warnings[:2]}')
+        r = Renderer(desc)
+        r.render(RenderOptions(spp=1, integrator='path', max_depth=3))
+        rs[n] = r
+    times = {n: [] for n in rs}
+    for k in range(a.repeats):
+        for n, r in rs.items():
+            t0 = time.perf_counter()
+            r.render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path', max_depth=3))
+            times[n].append(time.perf_counter() - t0)
+    med = {n: statistics.median(t) / a.spp for n, t in times.items()}
+    for n in rs:
+        print(f'  {n:5d} lights: {med[n] * 1e3:.1f} ms per sample per pixel (median of {a.repeats})')
+    print(f'  ratio {a.lights} / 1 lights: {med[a.lights] / med[1]:.2f}  (target <= 2)')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,112 @@
+"""The lights as the path integrator samples them: one light per shading point, chosen by power
+from an alias table (Walker 1977; Vose 1991), so the cost of a sample does not grow with the number
+of lights; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
+O(log n) per ray; the cook integrator never builds it); the dome's sampling tables.
+
+Power estimates (only their ratios matter, and any positive choice keeps the estimator unbiased):
+point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
+(texture mean) with R the radius of the scene's bounds, luminances of the RGB values.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .. import description as D
+from ..kernel.tables import LF_AREA, LF_H, LF_M, LF_RADIUS, LF_W
+from .dome_sampling import dome_tables
+
+PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
+                                       'dome_cdf', 'shape_scene', 'geom_off', 'prim_light'])
+_LUM = np.array([0.2126, 0.7152, 0.0722])
+
+
+def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """(prob, alias, pmf) of Vose's alias method for non-negative weights (uniform if all are 0):
+    draw i = floor(u n), keep it if frac(u n) < prob[i], else take alias[i]."""
+    w = np.asarray(weights, np.float64)
+    n = len(w)
+    pmf = w / w.sum() if w.sum() > 0 else np.full(n, 1.0 / n)
+    scaled = pmf * n
+    prob = np.ones(n)
+    alias = np.arange(n, dtype=np.int64)
+    small = [i for i in range(n) if scaled[i] < 1.0]
+    large = [i for i in range(n) if scaled[i] >= 1.0]
+    while small and large:
+        s, g = small.pop(), large.pop()
+        prob[s] = scaled[s]
+        alias[s] = g
+        scaled[g] -= 1.0 - scaled[s]
+        (small if scaled[g] < 1.0 else large).append(g)
+    return prob, alias, pmf
+
+
+def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
+    out = np.zeros(max(len(desc.lights), 1))
+    for k, l in enumerate(desc.lights):
+        y = float(np.dot(_LUM, l.radiance))
+        if l.type == D.POINT:
+            out[k] = 4 * np.pi * y
+        elif l.type in (D.RECT, D.DISK):
+            out[k] = np.pi * li_f[k, LF_AREA] * y
+        elif l.type == D.SPHERE:
+            out[k] = 4 * np.pi ** 2 * li_f[k, LF_RADIUS] ** 2 * y
+        elif l.type == D.DISTANT:
+            out[k] = np.pi * radius ** 2 * y
+        elif l.type == D.DOME:
+            out[k] = 4 * np.pi ** 2 * radius ** 2 * y * dome_mean.get(k, 1.0)
+    return np.where(np.isfinite(out) & (out > 0), out, 0.0)
+
+
+def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
+    """(Embree scene or None, geom_off, prim_light) of the light shapes, for BSDF rays to find them in
+    O(log n): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
+    test `light_sampling.hit_shape` rejects the corners), spheres as sphere points; light of a hit =
+    prim_light[geom_off[geomID] + primID]."""
+    planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]
+    round_ = [k for k in shapes if desc.lights[k].type == D.SPHERE]
+    if not shapes:
+        return None, np.zeros(1, np.int64), np.zeros(1, np.int64)
+    meshes, spheres, geom_off, prim_light = [], [], [], []
+    if planar:
+        verts = []
+        for k in planar:
+            m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
+            half = (0.5 * li_f[k, LF_W], 0.5 * li_f[k, LF_H]) if desc.lights[k].type == D.RECT else \
+                (li_f[k, LF_RADIUS],) * 2
+            ex, ey = m[:, 0] * half[0], m[:, 1] * half[1]
+            verts += [m[:, 3] - ex - ey, m[:, 3] + ex - ey, m[:, 3] + ex + ey, m[:, 3] - ex + ey]
+        base = 4 * np.arange(len(planar))[:, None]
+        tris = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]], 1).reshape(-1, 3)
+        meshes.append((np.array(verts, np.float32), tris.astype(np.uint32)))
+        geom_off.append(0)
+        prim_light += [k for k in planar for _ in range(2)]
+    if round_:
+        spheres.append(np.array([[*li_f[k, LF_M:LF_M + 12].reshape(3, 4)[:, 3], li_f[k, LF_RADIUS]]
+                                 for k in round_], np.float32))
+        geom_off.append(len(prim_light))
+        prim_light += round_
+    scene = device.prototype_scene(meshes, spheres)
+    return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
+
+
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device) -> tuple:
+    """(PathLights record, the light-shape Embree scene to keep alive or None) of a built scene
+    (li_f: the light table; bounds (2, 3) of the scene; device: its Embree device)."""
+    lo, hi = np.asarray(bounds, np.float64)
+    ext = hi - lo
+    radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
+    dome_i, dome_cdf, dome_mean = dome_tables(desc)
+    prob, alias, pmf = alias_table(light_power(desc, li_f, max(radius, 1e-30), dome_mean))
+    types = [l.type for l in desc.lights]
+    shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE)]
+    infinite = [k for k, l in enumerate(desc.lights)
+                if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
+    if not desc.lights:                      # no light at all: nothing is ever chosen (pmf unused)
+        pmf[:] = 0.0
+    scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)
+    return PathLights(prob=prob, alias=alias, pmf=pmf, shapes=np.array(shapes, np.int64),
+                      infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
+                      dome_i=dome_i, dome_cdf=dome_cdf, shape_scene=scene.handle if scene else 0,
+                      geom_off=geom_off, prim_light=prim_light), scene

@@ -1,0 +1,356 @@
+"""BSDFs of the path integrator: sample a direction, evaluate, report the pdf.
+
+One record, `Bsdf`, holds a mixture of lobes in the local shading frame (z = shading normal on the
+viewer's side); every material model sets the lobes it has and zeroes the others:
+
+* diffuse      Lambert, albedo `kd`; with `coupled` (UsdPreviewSurface) scaled by
+               (1 - F(cos_o)) (1 - F(cos_i)) per channel so that diffuse + specular stays <= 1 and the
+               BSDF stays reciprocal (symmetric in wo, wi);
+* gooch        (cool-to-warm) diffuse whose colour blends from `cool` to `kd` (warm) by
+               (1 + cos_i)(1 + cos_o) / 4: the course's tone ramp made symmetric;
+* ggx          GGX microfacet reflection, alpha = roughness^2, Schlick Fresnel F0 = `f0`, F90 = `f90`,
+               height-correlated Smith masking-shadowing; sampled from the distribution of visible
+               normals (Heitz 2018, "Sampling the GGX Distribution of Visible Normals", JCGT 7(4));
+* clearcoat    a second, white GGX layer (F0 = 0.04) of weight `cc`; the layers below are scaled by
+               (1 - cc F_c(cos_o)) (1 - cc F_c(cos_i));
+* phong        the course's Blinn-Phong highlight as a microfacet lobe: D(h) = (e + 1)/(2 pi) cos^e(h),
+               f = ks D / (4 (wo.h) max(cos_i, cos_o)), whose albedo is <= ks for every wo and whose
+               sampling weight is ks cos_i / max(cos_i, cos_o) <= ks;
+* mirror       perfect reflection of colour `mirror` (a delta lobe);
+* dielectric   smooth dielectric of relative index `eta` (= n_t / n_i seen from the viewer's side):
+               Fresnel-chosen delta reflection or refraction (radiance scaled by 1 / eta^2).
+
+Lobes are chosen by their estimated albedo at wo; the pdf of a non-delta direction is the mixture
+sum_l P(l) pdf_l(wi), so `sample` returns f cos / pdf of the whole non-delta BSDF.
+"""
+import math
+from collections import namedtuple
+
+import numba as nb
+
+from .. import description as D
+from .jit import SHADING_INLINE_JIT as _JIT
+
+Bsdf = namedtuple('Bsdf', ['kd', 'coupled', 'cool', 'gooch', 'f0', 'f90', 'alpha', 'cc', 'cc_alpha',
+                           'ks', 'exp', 'mirror', 'eta'])
+# lobes (index into the probabilities returned by `lobe_probabilities`)
+L_DIFFUSE, L_GGX, L_CLEARCOAT, L_PHONG, L_MIRROR, L_DIELECTRIC = range(6)
+N_LOBES = 6
+BLACK = (0.0, 0.0, 0.0)
+MIN_ALPHA = 1e-4          # roughness 0.01: below it GGX's D overflows nothing but stops being sampled usefully
+CC_F0 = 0.04
+
+
+@nb.njit(**_JIT)
+def lum(c):
+    return 0.2126 * c[0] + 0.7152 * c[1] + 0.0722 * c[2]
+
+
+@nb.njit(**_JIT)
+def schlick(f0, f90, c):
+    x = 1.0 - min(max(c, 0.0), 1.0)
+    x2 = x * x
+    return f0 + (f90 - f0) * (x2 * x2 * x)
+
+
+@nb.njit(**_JIT)
+def schlick3(f0, f90, c):
+    return schlick(f0[0], f90[0], c), schlick(f0[1], f90[1], c), schlick(f0[2], f90[2], c)
+
+
+@nb.njit(**_JIT)
+def ggx_d(cos_h, alpha):
+    a2 = alpha * alpha
+    x = cos_h * cos_h * (a2 - 1.0) + 1.0
+    return a2 / (math.pi * x * x)
+
+
+@nb.njit(**_JIT)
+def smith_lambda(cos_t, alpha):
+    c2 = cos_t * cos_t
+    if c2 >= 1.0:
+        return 0.0
+    t2 = (1.0 - c2) / max(c2, 1e-300)
+    return 0.5 * (math.sqrt(1.0 + alpha * alpha * t2) - 1.0)
+
+
+@nb.njit(**_JIT)
+def ggx_pdf(wo, h, alpha):
+    """Solid-angle pdf of the reflected direction about h under visible-normal sampling:
+    G1(wo) D(h) / (4 cos_o)."""
+    return ggx_d(h[2], alpha) / ((1.0 + smith_lambda(wo[2], alpha)) * 4.0 * wo[2])
+
+
+@nb.njit(**_JIT)
+def ggx_spec(wo, wi, h, alpha):
+    """D G2 / (4 cos_o cos_i) (without Fresnel), height-correlated Smith G2."""
+    g2 = 1.0 / (1.0 + smith_lambda(wo[2], alpha) + smith_lambda(wi[2], alpha))
+    return ggx_d(h[2], alpha) * g2 / (4.0 * wo[2] * wi[2])
+
+
+@nb.njit(**_JIT)
+def sample_vndf(wo, alpha, u1, u2):
+    """A microfacet normal from the GGX distribution of normals visible from wo (Heitz 2018)."""
+    vx = alpha * wo[0]
+    vy = alpha * wo[1]
+    vz = wo[2]
+    inv = 1.0 / math.sqrt(vx * vx + vy * vy + vz * vz)
+    vx *= inv
+    vy *= inv
+    vz *= inv
+    lensq = vx * vx + vy * vy
+    if lensq > 0.0:
+        il = 1.0 / math.sqrt(lensq)
+        t1 = (-vy * il, vx * il, 0.0)
+    else:
+        t1 = (1.0, 0.0, 0.0)
+    t2 = (vy * t1[2] - vz * t1[1], vz * t1[0] - vx * t1[2], vx * t1[1] - vy * t1[0])
+    r = math.sqrt(u1)
+    phi = 2.0 * math.pi * u2
+    p1 = r * math.cos(phi)
+    p2 = r * math.sin(phi)
+    s = 0.5 * (1.0 + vz)
+    p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
+    p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
+    nx = p1 * t1[0] + p2 * t2[0] + p3 * vx
+    ny = p1 * t1[1] + p2 * t2[1] + p3 * vy
+    nz = p1 * t1[2] + p2 * t2[2] + p3 * vz
+    hx = alpha * nx
+    hy = alpha * ny
+    hz = max(nz, 0.0)
+    inv = 1.0 / math.sqrt(hx * hx + hy * hy + hz * hz)
+    return hx * inv, hy * inv, hz * inv
+
+
+@nb.njit(**_JIT)
+def _reflect(wo, h):
+    c = 2.0 * (wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2])
+    return c * h[0] - wo[0], c * h[1] - wo[1], c * h[2] - wo[2]
+
+
+@nb.njit(**_JIT)
+def _half(wo, wi):
+    x = wo[0] + wi[0]
+    y = wo[1] + wi[1]
+    z = wo[2] + wi[2]
+    n = math.sqrt(x * x + y * y + z * z)
+    if n <= 0.0:
+        return 0.0, 0.0, 1.0
+    return x / n, y / n, z / n
+
+
+@nb.njit(**_JIT)
+def is_delta(b):
+    """True if the BSDF has no lobe but delta ones (next-event estimation is useless)."""
+    return (b.kd[0] <= 0.0 and b.kd[1] <= 0.0 and b.kd[2] <= 0.0 and not b.gooch and b.alpha <= 0.0
+            and b.cc <= 0.0 and b.exp < 0.0)
+
+
+@nb.njit(**_JIT)
+def lobe_probabilities(b, cos_o):
+    """Probabilities of the six lobes at cos_o, proportional to their estimated albedo."""
+    fs = schlick3(b.f0, b.f90, cos_o) if b.alpha > 0.0 else BLACK
+    fc = b.cc * schlick(CC_F0, 1.0, cos_o)
+    if b.gooch:
+        a_d = 0.5 * (lum(b.kd) + lum(b.cool))
+    elif b.coupled:
+        a_d = lum(((1.0 - fs[0]) * b.kd[0], (1.0 - fs[1]) * b.kd[1], (1.0 - fs[2]) * b.kd[2]))
+    else:
+        a_d = lum(b.kd)
+    a_d *= 1.0 - fc
+    a_g = lum(fs) * (1.0 - fc)
+    a_p = lum(b.ks) if b.exp >= 0.0 else 0.0
+    a_m = lum(b.mirror)
+    a_t = 1.0 if b.eta > 0.0 else 0.0
+    tot = a_d + a_g + fc + a_p + a_m + a_t
+    if not tot > 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    s = 1.0 / tot
+    return a_d * s, a_g * s, fc * s, a_p * s, a_m * s, a_t * s
+
+
+@nb.njit(**_JIT)
+def evaluate(b, wo, wi):
+    """(f(wo, wi) cos_i rgb, mixture pdf of wi) of the non-delta lobes; wo, wi local unit vectors."""
+    if wo[2] <= 0.0 or wi[2] <= 0.0:
+        return BLACK, 0.0
+    p = lobe_probabilities(b, wo[2])
+    h = _half(wo, wi)
+    vh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
+    ci = wi[2]
+    fr = 0.0
+    fg = 0.0
+    fb = 0.0
+    pdf = 0.0
+    if p[L_DIFFUSE] > 0.0:
+        pdf += p[L_DIFFUSE] * ci / math.pi
+        if b.gooch:
+            t = 0.25 * (1.0 + ci) * (1.0 + wo[2])
+            fr = (b.cool[0] + t * (b.kd[0] - b.cool[0])) / math.pi
+            fg = (b.cool[1] + t * (b.kd[1] - b.cool[1])) / math.pi
+            fb = (b.cool[2] + t * (b.kd[2] - b.cool[2])) / math.pi
+        elif b.coupled:
+            fo = schlick3(b.f0, b.f90, wo[2])
+            fi = schlick3(b.f0, b.f90, ci)
+            fr = b.kd[0] * (1.0 - fo[0]) * (1.0 - fi[0]) / math.pi
+            fg = b.kd[1] * (1.0 - fo[1]) * (1.0 - fi[1]) / math.pi
+            fb = b.kd[2] * (1.0 - fo[2]) * (1.0 - fi[2]) / math.pi
+        else:
+            fr = b.kd[0] / math.pi
+            fg = b.kd[1] / math.pi
+            fb = b.kd[2] / math.pi
+    if b.alpha > 0.0:
+        F = schlick3(b.f0, b.f90, vh)
+        s = ggx_spec(wo, wi, h, b.alpha)
+        fr += F[0] * s
+        fg += F[1] * s
+        fb += F[2] * s
+        pdf += p[L_GGX] * ggx_pdf(wo, h, b.alpha)
+    if b.cc > 0.0:
+        layer = (1.0 - b.cc * schlick(CC_F0, 1.0, wo[2])) * (1.0 - b.cc * schlick(CC_F0, 1.0, ci))
+        c = b.cc * schlick(CC_F0, 1.0, vh) * ggx_spec(wo, wi, h, b.cc_alpha)
+        fr = fr * layer + c
+        fg = fg * layer + c
+        fb = fb * layer + c
+        pdf += p[L_CLEARCOAT] * ggx_pdf(wo, h, b.cc_alpha)
+    if b.exp >= 0.0 and h[2] > 0.0:
+        dh = (b.exp + 1.0) / (2.0 * math.pi) * h[2] ** b.exp
+        s = dh / (4.0 * vh * max(ci, wo[2]))
+        fr += b.ks[0] * s
+        fg += b.ks[1] * s
+        fb += b.ks[2] * s
+        pdf += p[L_PHONG] * dh / (4.0 * vh)
+    return (fr * ci, fg * ci, fb * ci), pdf
+
+
+@nb.njit(**_JIT)
+def _pick(p, u):
+    """Lobe index for u in [0, 1) and u rescaled to [0, 1) within the chosen lobe's interval."""
+    acc = 0.0
+    last = -1
+    for k in range(N_LOBES):
+        if p[k] > 0.0:
+            last = k
+            if u < acc + p[k]:
+                return k, min((u - acc) / p[k], 0.99999994)
+            acc += p[k]
+    return last, 0.5
+
+
+@nb.njit(**_JIT)
+def sample(b, wo, ul, u1, u2):
+    """Sample wi: (wi, weight rgb, pdf, delta).  weight = f cos / pdf for the non-delta lobes (pdf > 0),
+    the lobe's weight / its probability for a delta lobe (delta True, pdf 0); weight 0 = absorbed."""
+    dead = ((0.0, 0.0, 1.0), BLACK, 0.0, False)
+    if wo[2] <= 0.0:
+        return dead
+    p = lobe_probabilities(b, wo[2])
+    k, ur = _pick(p, ul)
+    if k < 0:
+        return dead
+    if k == L_DIELECTRIC:
+        return _sample_dielectric(b, wo, ur)
+    if k == L_MIRROR:
+        q = 1.0 / p[L_MIRROR]
+        return (-wo[0], -wo[1], wo[2]), (b.mirror[0] * q, b.mirror[1] * q, b.mirror[2] * q), 0.0, True
+    if k == L_DIFFUSE:
+        r = math.sqrt(u1)
+        phi = 2.0 * math.pi * u2
+        wi = (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u1)))
+    elif k == L_GGX or k == L_CLEARCOAT:
+        h = sample_vndf(wo, b.alpha if k == L_GGX else b.cc_alpha, u1, u2)
+        wi = _reflect(wo, h)
+    else:
+        ct = u1 ** (1.0 / (b.exp + 1.0))
+        st = math.sqrt(max(0.0, 1.0 - ct * ct))
+        phi = 2.0 * math.pi * u2
+        wi = _reflect(wo, (st * math.cos(phi), st * math.sin(phi), ct))
+    if wi[2] <= 0.0:
+        return dead
+    f, pdf = evaluate(b, wo, wi)
+    if not pdf > 0.0:
+        return dead
+    return wi, (f[0] / pdf, f[1] / pdf, f[2] / pdf), pdf, False
+
+
+@nb.njit(**_JIT)
+def _sample_dielectric(b, wo, u):
+    eta = b.eta
+    ci = wo[2]
+    s2 = (1.0 - ci * ci) / (eta * eta)
+    if s2 >= 1.0:
+        F = 1.0
+        ct = 0.0
+    else:
+        ct = math.sqrt(1.0 - s2)
+        rs = (ci - eta * ct) / (ci + eta * ct)
+        rp = (eta * ci - ct) / (eta * ci + ct)
+        F = 0.5 * (rs * rs + rp * rp)
+    if u < F:
+        return (-wo[0], -wo[1], wo[2]), (1.0, 1.0, 1.0), 0.0, True
+    k = 1.0 / eta
+    w = k * k
+    return (-k * wo[0], -k * wo[1], -ct), (w, w, w), 0.0, True
+
+
+# ----------------------------------------------------------------------------- materials -> Bsdf
+@nb.njit(**_JIT)
+def _scaled(c, s):
+    return c[0] * s, c[1] * s, c[2] * s
+
+
+@nb.njit(**_JIT)
+def preview_bsdf(diff, f0, f90, alpha, cc, cc_alpha):
+    """A UsdPreviewSurface's lobes from `materials.preview_params` (diffuse, F0, F90, alpha) and its
+    clearcoat (weight, alpha)."""
+    return Bsdf(diff, True, BLACK, False, f0, f90, max(alpha, MIN_ALPHA), cc, max(cc_alpha, MIN_ALPHA),
+                BLACK, -1.0, BLACK, 0.0)
+
+
+@nb.njit(**_JIT)
+def course_bsdf(model, kd, ks, exp, m, rough, ior, front, cool):
+    """The physically plausible reading of a course model (README, "How course models are read by
+    path"): model ids from `description`; kd, ks course colours; m the mirror coefficient, rough the
+    glossy roughness, ior the dielectric's index, front whether the viewer is outside, cool the
+    cool-to-warm model's cool colour (kd is then its warm colour).  Colours whose sum of lobe weights
+    exceeds 1 are scaled down to 1 (energy conservation)."""
+    mirror = BLACK
+    alpha = 0.0
+    e = -1.0
+    eta = 0.0
+    gooch = False
+    if model == D.LAMBERTIAN:
+        ks = BLACK
+    elif model == D.BLINN_PHONG:
+        e = exp
+    elif model == D.MIRROR:
+        mirror = ks if (ks[0] > 0.0 or ks[1] > 0.0 or ks[2] > 0.0) else (1.0, 1.0, 1.0)
+        kd = BLACK
+        ks = BLACK
+    elif model == D.GLAZE:
+        kd = _scaled(kd, 1.0 - m)
+        ks = BLACK
+        mirror = (m, m, m)
+    elif model == D.BLINN_PHONG_MIRRORED:
+        kd = _scaled(kd, 1.0 - m)
+        ks = _scaled(ks, 1.0 - m)
+        e = exp
+        if rough > 0.0:
+            alpha = max(rough * rough, MIN_ALPHA)
+        else:
+            mirror = (m, m, m)
+    elif model == D.DIELECTRIC:
+        kd = BLACK
+        ks = BLACK
+        eta = ior if front else 1.0 / ior
+    else:                                           # COOL_TO_WARM
+        ks = BLACK
+        gooch = True
+    tot = 0.0
+    for c in range(3):
+        w = kd[c] + (ks[c] if e >= 0.0 else 0.0) + mirror[c] + (m if alpha > 0.0 else 0.0)
+        tot = max(tot, w, cool[c] if gooch else 0.0)
+    s = 1.0 / tot if tot > 1.0 else 1.0
+    mm = m * s
+    return Bsdf(_scaled(kd, s), False, _scaled(cool, s), gooch, (mm, mm, mm), (mm, mm, mm), alpha, 0.0, 0.0,
+                _scaled(ks, s), e, _scaled(mirror, s), eta)

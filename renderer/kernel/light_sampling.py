@@ -1,0 +1,341 @@
+"""Lights for the path integrator: samples with their solid-angle pdf, and the emission that
+BSDF-sampled rays find, so that the two strategies are combined by multiple importance sampling.
+
+`sample_ld(S, L, k, p, n, u1, u2)` -> (wi, dist, Le rgb, pdf, delta): a direction towards light k, the
+distance for the shadow ray, the radiance arriving along it and the pdf of wi per unit solid angle.
+Delta lights (point; distant of zero angle) return delta = True, pdf 1 and Le = the irradiance they
+deliver normal to wi (I / d^2, or E): next-event estimation alone sees them.
+
+Lights with extent: rect and disk (uniform by area: pdf = d^2 / (cos_l A)), sphere (uniform in the
+cone it subtends, exact), distant with an angle (uniform in its cone: radiance E / Omega), dome
+(importance sampling of its lat-long texture by luminance x sin(theta), `host/dome_sampling.py`;
+cosine-weighted about n when untextured).  Rects and disks emit from their front (local -Z) only,
+spheres outwards.  Light shapes are not geometry: they occlude nothing, and a ray collects the
+emission of every light shape it crosses before the surface it hits (`area_emission`).  Every ray
+sees them, camera rays included (UsdLux gives lights no camera-visibility attribute; path renders
+what the light emits towards the camera, as Mitsuba and Karma do by default); the cook integrator
+does not see light shapes at all.
+
+`L` is the `PathLights` record of `host/light_selection.py` (the alias table that picks a light by
+power, the pmf, the list of light shapes, the dome tables).
+"""
+import math
+
+import numba as nb
+
+from .. import description as D
+from .lights import dome_radiance
+from .jit import SHADING_INLINE_JIT as _JIT
+from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .trace import GEOM_ID, PRIM_ID, TFAR, intersect1
+from .vecmath import cross, dot, normalize, onb, sub, to_world
+INF = math.inf
+ZERO = (0.0, 0.0, 0.0)
+NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
+
+
+@nb.njit(**_JIT)
+def _col(lf, k, j):
+    return (lf[k, LF_M + j], lf[k, LF_M + 4 + j], lf[k, LF_M + 8 + j])
+
+
+@nb.njit(**_JIT)
+def choose_light(L, u):
+    """(light index, its probability) from the alias table, for u in [0, 1)."""
+    n = L.alias.shape[0]
+    x = u * n
+    i = min(int(x), n - 1)
+    if x - i < L.prob[i]:
+        return i, L.pmf[i]
+    j = L.alias[i]
+    return j, L.pmf[j]
+
+
+@nb.njit(**_JIT)
+def _plane(lf, k):
+    """(centre, ex, ey, unit normal towards the emitting side's opposite = local +Z side)."""
+    ex = _col(lf, k, 0)
+    ey = _col(lf, k, 1)
+    nrm = normalize(cross(ex, ey))
+    if dot(nrm, _col(lf, k, 2)) < 0.0:
+        nrm = (-nrm[0], -nrm[1], -nrm[2])
+    return _col(lf, k, 3), ex, ey, nrm
+
+
+@nb.njit(**_JIT)
+def _cone(w, cos_max, u1, u2):
+    cos_t = 1.0 - u1 * (1.0 - cos_max)
+    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+    phi = 2.0 * math.pi * u2
+    tt, bb = onb(w)
+    return to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+
+
+@nb.njit(**_JIT)
+def sample_ld(S, L, k, p, n, u1, u2):
+    """-> (wi, dist, Le rgb, pdf, delta) for light k seen from p (n: shading normal, for the dome)."""
+    t = S.li_type[k]
+    lf = S.li_f
+    Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
+    pos = _col(lf, k, 3)
+    if t == D.POINT:
+        v = sub(pos, p)
+        d2 = dot(v, v)
+        if d2 <= 0.0:
+            return NONE
+        d = math.sqrt(d2)
+        return (v[0] / d, v[1] / d, v[2] / d), d, (Lr[0] / d2, Lr[1] / d2, Lr[2] / d2), 1.0, True
+    if t == D.RECT or t == D.DISK:
+        c, ex, ey, nrm = _plane(lf, k)
+        if t == D.RECT:
+            a = (u1 - 0.5) * lf[k, LF_W]
+            b = (u2 - 0.5) * lf[k, LF_H]
+        else:
+            r = lf[k, LF_RADIUS] * math.sqrt(u1)
+            phi = 2.0 * math.pi * u2
+            a = r * math.cos(phi)
+            b = r * math.sin(phi)
+        q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
+        v = sub(q, p)
+        d2 = dot(v, v)
+        if d2 <= 0.0:
+            return NONE
+        d = math.sqrt(d2)
+        wi = (v[0] / d, v[1] / d, v[2] / d)
+        cos_l = dot(nrm, wi)
+        if cos_l <= 0.0:
+            return NONE
+        return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
+    if t == D.SPHERE:
+        r = lf[k, LF_RADIUS]
+        v = sub(pos, p)
+        d2 = dot(v, v)
+        if d2 <= r * r:
+            return NONE
+        d = math.sqrt(d2)
+        w = (v[0] / d, v[1] / d, v[2] / d)
+        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
+        wi = _cone(w, cos_max, u1, u2)
+        bq = d * dot(wi, w)
+        dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
+        return wi, dist, Lr, 1.0 / (2.0 * math.pi * (1.0 - cos_max)), False
+    if t == D.DISTANT:
+        w = normalize(_col(lf, k, 2))
+        cos_max = lf[k, LF_COS_MAX]
+        if cos_max >= 1.0:
+            return w, INF, Lr, 1.0, True
+        omega = 2.0 * math.pi * (1.0 - cos_max)
+        return _cone(w, cos_max, u1, u2), INF, (Lr[0] / omega, Lr[1] / omega, Lr[2] / omega), 1.0 / omega, False
+    if t == D.DOME:
+        if L.dome_i[k, 0] >= 0:
+            wi, pdf = sample_dome_texture(S, L, k, u1, u2)
+        else:
+            r = math.sqrt(u1)
+            phi = 2.0 * math.pi * u2
+            z = math.sqrt(max(0.0, 1.0 - u1))
+            tt, bb = onb(n)
+            wi = to_world((r * math.cos(phi), r * math.sin(phi), z), tt, bb, n)
+            pdf = z / math.pi
+        if not pdf > 0.0:
+            return NONE
+        return wi, INF, dome_radiance(S, k, wi), pdf, False
+    return NONE
+
+
+# ----------------------------------------------------------------------------- dome tables
+@nb.njit(**_JIT)
+def _search(cdf, lo, n, u):
+    """Largest i in [0, n) with cdf[lo + i] <= u (cdf[lo] = 0, cdf[lo + n] = 1)."""
+    a = 0
+    b = n
+    while b - a > 1:
+        m = (a + b) // 2
+        if cdf[lo + m] <= u:
+            a = m
+        else:
+            b = m
+    return a
+
+
+@nb.njit(**_JIT)
+def _dome_frame(S, k):
+    lf = S.li_f
+    return normalize(_col(lf, k, 0)), normalize(_col(lf, k, 1)), normalize(_col(lf, k, 2))
+
+
+@nb.njit(**_JIT)
+def sample_dome_texture(S, L, k, u1, u2):
+    """(world direction, solid-angle pdf) from the piecewise-constant distribution of the dome's
+    lat-long image (texels weighted by luminance x sin(theta)); rows = latitude, top row = +Y."""
+    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
+    y = _search(L.dome_cdf, moff, h, u2)
+    m0 = L.dome_cdf[moff + y]
+    pm = L.dome_cdf[moff + y + 1] - m0
+    if not pm > 0.0:
+        return (0.0, 0.0, 1.0), 0.0
+    fy = (u2 - m0) / pm
+    row = coff + y * (w + 1)
+    x = _search(L.dome_cdf, row, w, u1)
+    c0 = L.dome_cdf[row + x]
+    pc = L.dome_cdf[row + x + 1] - c0
+    if not pc > 0.0:
+        return (0.0, 0.0, 1.0), 0.0
+    fx = (u1 - c0) / pc
+    s = (x + fx) / w
+    v = (y + fy) / h
+    lat = (0.5 - v) * math.pi
+    lon = (0.5 - s) * 2.0 * math.pi
+    cl = math.cos(lat)
+    if cl <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0
+    loc = (cl * math.sin(lon), math.sin(lat), cl * math.cos(lon))
+    ax, ay, az = _dome_frame(S, k)
+    wd = (loc[0] * ax[0] + loc[1] * ay[0] + loc[2] * az[0], loc[0] * ax[1] + loc[1] * ay[1] + loc[2] * az[1],
+          loc[0] * ax[2] + loc[1] * ay[2] + loc[2] * az[2])
+    return wd, pm * pc * w * h / (2.0 * math.pi * math.pi * cl)
+
+
+@nb.njit(**_JIT)
+def dome_pdf(S, L, k, wd, n):
+    """Solid-angle pdf with which `sample_ld` draws world direction wd for dome k (n: shading normal
+    of the vertex, for an untextured dome)."""
+    if L.dome_i[k, 0] < 0:
+        c = dot(wd, n)
+        return c / math.pi if c > 0.0 else 0.0
+    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
+    ax, ay, az = _dome_frame(S, k)
+    loc = (dot(wd, ax), dot(wd, ay), dot(wd, az))
+    lat = math.asin(max(-1.0, min(1.0, loc[1])))
+    cl = math.cos(lat)
+    if cl <= 0.0:
+        return 0.0
+    s = 0.5 - math.atan2(loc[0], loc[2]) / (2.0 * math.pi)
+    v = 0.5 - lat / math.pi
+    x = min(max(int(s * w), 0), w - 1)
+    y = min(max(int(v * h), 0), h - 1)
+    pm = L.dome_cdf[moff + y + 1] - L.dome_cdf[moff + y]
+    row = coff + y * (w + 1)
+    pc = L.dome_cdf[row + x + 1] - L.dome_cdf[row + x]
+    return pm * pc * w * h / (2.0 * math.pi * math.pi * cl)
+
+
+# ----------------------------------------------------------------------------- what BSDF rays find
+@nb.njit(**_JIT)
+def _power(a, b):
+    a2 = a * a
+    return a2 / (a2 + b * b)
+
+
+@nb.njit(**_JIT)
+def hit_shape(S, k, o, d, tmax, p0):
+    """(t, pdf) where the ray o + t d, t in (0, tmax), meets the emitting side of light shape k,
+    t = -1 if it does not; pdf: the solid-angle pdf of `sample_ld` for that point seen from p0 (the
+    path vertex the ray left, which o follows on the same line when the ray passed through
+    transparent surfaces)."""
+    lf = S.li_f
+    t = S.li_type[k]
+    if t == D.SPHERE:
+        r = lf[k, LF_RADIUS]
+        c = _col(lf, k, 3)
+        oc = sub(o, c)
+        b = dot(oc, d)
+        cc = dot(oc, oc) - r * r
+        disc = b * b - cc
+        if cc <= 0.0 or disc <= 0.0:
+            return -1.0, 0.0
+        th = -b - math.sqrt(disc)
+        if not (0.0 < th < tmax):
+            return -1.0, 0.0
+        v = sub(c, p0)
+        d2 = dot(v, v)
+        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
+        return th, 1.0 / (2.0 * math.pi * (1.0 - cos_max))
+    c, ex, ey, nrm = _plane(lf, k)
+    den = dot(d, nrm)
+    if den <= 0.0:                       # travelling away from the emitting side
+        return -1.0, 0.0
+    th = dot(sub(c, o), nrm) / den
+    if not (0.0 < th < tmax):
+        return -1.0, 0.0
+    q = (o[0] + th * d[0], o[1] + th * d[1], o[2] + th * d[2])
+    rv = sub(q, c)
+    cy = cross(ey, nrm)
+    cx = cross(nrm, ex)
+    a = dot(rv, cy) / dot(ex, cy)
+    b = dot(rv, cx) / dot(ey, cx)
+    if t == D.RECT:
+        if abs(a) > 0.5 * lf[k, LF_W] or abs(b) > 0.5 * lf[k, LF_H]:
+            return -1.0, 0.0
+    elif a * a + b * b > lf[k, LF_RADIUS] * lf[k, LF_RADIUS]:
+        return -1.0, 0.0
+    v = sub(q, p0)
+    d2 = dot(v, v)
+    return th, d2 / (den * lf[k, LF_AREA])
+
+
+@nb.njit(**_JIT)
+def area_emission(S, L, ray, tmax, prev, f, u):
+    """MIS-weighted radiance of the light shapes crossed by ray = (o, d) before tmax, found in the
+    light-shape scene (one query per shape crossed, plus one); f, u: a ray buffer of its own.
+    prev = (p0, n0, bsdf pdf, mis mode): the vertex the ray left, its normal, the pdf with which
+    its BSDF drew d, and 0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe,
+    or BSDF sampling alone), 2 = weight 0 (next-event estimation alone)."""
+    o, d = ray
+    p0, n0, pb, mode = prev
+    r = 0.0
+    g = 0.0
+    b = 0.0
+    if mode == 2:
+        return ZERO
+    tn = 0.0
+    for _ in range(L.prim_light.shape[0]):
+        if not intersect1(L.shape_scene, f, u, o[0], o[1], o[2], d[0], d[1], d[2], tn, tmax, 0.0):
+            break
+        te = float(f[TFAR])
+        tn = te + 1e-5 * max(te, 1e-3)                 # the next query starts past this shape
+        k = L.prim_light[L.geom_off[u[GEOM_ID]] + u[PRIM_ID]]
+        t, pl = hit_shape(S, k, o, d, tmax, p0)
+        # the exact test: the emitting side, inside the disk, and this crossing (a sphere's far side
+        # is a second Embree hit of the same front point)
+        if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
+            continue
+        w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
+        r += w * S.li_f[k, LF_RAD]
+        g += w * S.li_f[k, LF_RAD + 1]
+        b += w * S.li_f[k, LF_RAD + 2]
+    return r, g, b
+
+
+@nb.njit(**_JIT)
+def escaped_emission(S, L, d, prev):
+    """MIS-weighted radiance along a ray that leaves the scene: domes and distant lights with an
+    angle (prev as in `area_emission`); the background colour (weight 1: no light samples it) when
+    the scene has no dome."""
+    p0, n0, pb, mode = prev
+    r = 0.0
+    g = 0.0
+    b = 0.0
+    if L.has_dome == 0:
+        r = S.background[0]
+        g = S.background[1]
+        b = S.background[2]
+    if mode == 2:
+        return r, g, b
+    lf = S.li_f
+    for j in range(L.infinite.shape[0]):
+        k = L.infinite[j]
+        if S.li_type[k] == D.DOME:
+            Le = dome_radiance(S, k, d)
+            pl = dome_pdf(S, L, k, d, n0)
+        else:
+            cos_max = lf[k, LF_COS_MAX]
+            if dot(d, normalize(_col(lf, k, 2))) < cos_max:
+                continue
+            omega = 2.0 * math.pi * (1.0 - cos_max)
+            Le = (lf[k, LF_RAD] / omega, lf[k, LF_RAD + 1] / omega, lf[k, LF_RAD + 2] / omega)
+            pl = 1.0 / omega
+        w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
+        r += w * Le[0]
+        g += w * Le[1]
+        b += w * Le[2]
+    return r, g, b

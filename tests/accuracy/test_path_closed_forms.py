@@ -1,0 +1,63 @@
+"""The path integrator against closed forms: the white furnace (a closed diffuse enclosure of albedo
+rho and emission Le: L = Le (1 - rho^(D+1)) / (1 - rho) with D bounces, Le / (1 - rho) with
+roulette), and a Lambert plane under a rect light (Lambert's polygon formula: L = rho / pi E)."""
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, Renderer
+from tests.renderer import test_integrator as ti
+from tests.renderer.handmade import look_at, ortho_down, quad, rect_light, scene
+
+N, WIDTH, H, A, B, LR = 24, 4.0, 1.0, 1.2, 0.8, 2.0
+
+
+def box(size=2.0):
+    """The six faces of a cube about the origin (two triangles each, facing outwards)."""
+    h = size / 2
+    pts = np.array([[x, y, z] for x in (-h, h) for y in (-h, h) for z in (-h, h)], np.float64)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    tris = np.array([t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))], np.int32)
+    return D.Mesh(path='/box', points=pts, triangles=tris, material=0)
+
+
+def furnace(rho, le, model=D.LAMBERTIAN):
+    mat = D.Material('/wall', model=model, diffuse=(rho,) * 3, emission=(le,) * 3)
+    cam = D.Camera(path='/cam', matrix=look_at((0.1, 0.2, 0.3), (1.0, -0.3, -0.8)))
+    return scene([D.Container('/', meshes=[box()])], [mat], [], cam, width=32, height=32)
+
+
+@pytest.mark.parametrize('rho,depth', [(0.5, 1), (0.5, 8), (0.8, 3)])
+def test_white_furnace_with_d_bounces(rho, depth):
+    with Renderer(furnace(rho, 1.0)) as r:
+        img = r.render(RenderOptions(spp=128, integrator='path', max_depth=depth, sampler='independent')).image
+    expected = (1 - rho ** (depth + 1)) / (1 - rho)
+    assert img.mean() == pytest.approx(expected, rel=0.005), (img.mean(), expected)
+    if depth < 3:                                       # no roulette yet: every path has the same value
+        np.testing.assert_allclose(img, expected, rtol=1e-5)
+
+
+@pytest.mark.parametrize('rho', [0.5, 0.8])
+def test_white_furnace_with_roulette_converges_to_the_infinite_sum(rho):
+    with Renderer(furnace(rho, 1.0)) as r:
+        img = r.render(RenderOptions(spp=256, integrator='path', max_depth=64, sampler='sobol')).image
+    assert img.mean() == pytest.approx(1 / (1 - rho), rel=0.005), img.mean()
+
+
+def lambert_plane_under_rect(model=D.LAMBERTIAN):
+    lam = D.Material('/lambert', model=model, diffuse=(0.5, 0.5, 0.5))
+    return scene([D.Container('/', meshes=[quad(40.0)])], [lam], [rect_light((0.0, H, 0.0), A, B, (LR,) * 3)],
+                 ortho_down(width=WIDTH), width=N, height=N)
+
+
+@pytest.mark.parametrize('strategy', ['mis', 'nee', 'bsdf'])
+def test_lambert_plane_under_a_rect_light_is_the_form_factor(strategy):
+    corners = [(-A / 2, H, -B / 2), (A / 2, H, -B / 2), (A / 2, H, B / 2), (-A / 2, H, B / 2)]
+    ref = ti.pixel_average(lambda x, z: 0.5 / np.pi * ti.polygon_irradiance(x, z, corners, LR), N, WIDTH, sub=24)
+    spp = 256 if strategy != 'bsdf' else 2048
+    with Renderer(lambert_plane_under_rect()) as r:
+        img = r.render(RenderOptions(spp=spp, integrator='path', strategy=strategy, filter='box')).image[..., 0]
+    # per pixel within 4 standard errors, the image mean within 0.5 %
+    assert img.mean() == pytest.approx(ref.mean(), rel=0.005)
+    err = np.abs(img - ref)
+    assert np.sqrt(np.mean(err ** 2)) < 0.02 * ref.max(), np.sqrt(np.mean(err ** 2))

@@ -1,0 +1,95 @@
+"""Every kind of light the path integrator samples with MIS is found by both strategies: light
+sampling alone and BSDF sampling alone converge to the same image for sphere, disk, distant (with
+an angle) and textured dome lights; delta lights are seen by light sampling; images are bit-identical
+across thread counts and splits into passes."""
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, Renderer
+from tests.renderer.handmade import look_at, quad, scene, translate
+
+
+def _floor_scene(lights, textures=()):
+    mats = [D.Material('/floor', diffuse=(0.6, 0.6, 0.6), roughness=0.6),
+            D.Material('/ball', diffuse=(0.9, 0.5, 0.2), metallic=1.0, roughness=0.5)]
+    ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0.0, 0.5, 0.0), material=1)
+    cam = D.Camera(path='/cam', matrix=look_at((0.0, 2.0, 4.0), (0.0, 0.3, 0.0)))
+    return scene([D.Container('/', meshes=[quad(8.0)], spheres=[ball])], mats, lights, cam, width=32, height=24,
+                 textures=textures)
+
+
+def _disk(center, radius, radiance):
+    m = np.eye(4)
+    m[:3, 1], m[:3, 2] = (0, 0, -1), (0, 1, 0)         # emits along -Y
+    m[:3, 3] = center
+    return D.Light(path='/disk', type=D.DISK, matrix=m, radiance=radiance, radius=radius)
+
+
+def _sky():
+    h, w = 16, 32
+    px = np.full((h, w, 3), 0.2, np.float32)
+    px[3:5, 10:13] = (40.0, 30.0, 20.0)               # a small bright "sun" in the upper rows
+    return D.Texture(path='/sky.exr', pixels=px, wrap_s='repeat', wrap_t='clamp')
+
+
+LIGHTS = {
+    'sphere': ([D.Light(path='/s', type=D.SPHERE, matrix=translate(1.0, 2.0, 1.0), radiance=(20.0,) * 3,
+                        radius=0.25)], ()),
+    'disk': ([_disk((-1.0, 2.5, 0.5), 0.4, (15.0,) * 3)], ()),
+    'distant': ([D.Light(path='/d', type=D.DISTANT, matrix=np.linalg.inv(look_at((0, 0, 0), (-1, -2, -1)))
+                         @ np.eye(4), radiance=(3.0,) * 3, angle=10.0)], ()),
+    'dome': ([D.Light(path='/dome', type=D.DOME, matrix=np.eye(4), radiance=(1.0,) * 3, texture=0)], (_sky(),)),
+}
+
+
+def _distant_matrix():
+    # local +Z (towards the light) = normalised (1, 2, 1)
+    z = np.array([1.0, 2.0, 1.0]) / np.sqrt(6.0)
+    x = np.cross([0.0, 1.0, 0.0], z)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2] = x, np.cross(z, x), z
+    return m
+
+
+LIGHTS['distant'][0][0].matrix = _distant_matrix()
+
+
+def _mean(r, strategy, spp):
+    return np.mean([r.render(RenderOptions(spp=spp, seed=s, integrator='path', max_depth=2, strategy=strategy,
+                                           sampler='independent')).image.astype(np.float64) for s in range(2)], 0)
+
+
+@pytest.mark.parametrize('kind', LIGHTS)
+def test_light_sampling_and_bsdf_sampling_find_the_same_light(kind):
+    lights, tex = LIGHTS[kind]
+    with Renderer(_floor_scene(lights, tex)) as r:
+        nee = _mean(r, 'nee', 512)
+        bsdf = _mean(r, 'bsdf', 2048)          # BSDF sampling alone: the noisiest of the three
+        mis = _mean(r, 'mis', 256)
+    assert mis.mean() > 1e-3
+    assert nee.mean() == pytest.approx(mis.mean(), rel=0.015), (nee.mean(), mis.mean())
+    assert bsdf.mean() == pytest.approx(mis.mean(), rel=0.015), (bsdf.mean(), mis.mean())
+
+
+def test_point_light_is_found_by_light_sampling_only():
+    desc = _floor_scene([D.Light(path='/p', type=D.POINT, matrix=translate(0.0, 3.0, 1.0), radiance=(10.0,) * 3)])
+    with Renderer(desc) as r:
+        mis = r.render(RenderOptions(spp=16, integrator='path', max_depth=1)).image
+        bsdf = r.render(RenderOptions(spp=16, integrator='path', max_depth=1, strategy='bsdf')).image
+    assert mis.mean() > 0.01 and bsdf.max() == 0.0
+    # the floor straight below the light: E = I / d^2, L = rho / pi E (+ a little specular)
+
+
+def test_images_are_bit_identical_across_threads_and_passes():
+    lights, tex = LIGHTS['dome']
+    desc = _floor_scene(lights + LIGHTS['sphere'][0], tex)
+    with Renderer(desc, threads=1) as r:
+        one = r.render(RenderOptions(spp=8, integrator='path', threads=1, pass_seconds=1e9)).image
+    with Renderer(desc, threads=2) as r:
+        two = r.render(RenderOptions(spp=8, integrator='path', threads=2, pass_seconds=1e-9)).image
+        film = r.render(RenderOptions(spp=3, integrator='path')).film
+        resumed = r.render(RenderOptions(spp=8, integrator='path'), film=film).image
+    assert np.array_equal(one, two)
+    assert np.array_equal(one, resumed)
