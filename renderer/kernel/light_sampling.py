@@ -289,7 +289,7 @@ def area_emission(S, L, ray, tmax, prev, f, u):
         return ZERO
     tn = 0.0
     for _ in range(L.prim_light.shape[0]):
-        if not intersect1(L.shape_scene, f, u, o[0], o[1], o[2], d[0], d[1], d[2], tn, tmax, 0.0):
+        if not intersect1(L.shape_scene, f, u, o, d, tn, tmax, 0.0):
             break
         te = float(f[TFAR])
         tn = te + 1e-5 * max(te, 1e-3)                 # the next query starts past this shape

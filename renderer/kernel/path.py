@@ -32,15 +32,15 @@ from .bsdf import BLACK, course_bsdf, evaluate, is_delta, preview_bsdf, sample
 from .cameras import camera_rays
 from .dimensions import DIM_PIXEL, DIM_TIME, P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .filters import filter_offset
-from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, \
-    _lane_hit, _shading_point
+from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, _shading_point
 from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, colors, preview_params
+from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .jit import SHADING_INLINE_JIT, SHADING_JIT
 from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH)
-from .trace import PACKET, TFAR, intersect1, intersect16, new_packet16, new_ray_buffer, occluded1, set_ray16
+from .records import Ray, Tracer
+from .trace import PACKET, TFAR, intersect1, intersect16, lane_hit, new_packet16, new_ray_buffer, occluded1, set_ray16
 from .vecmath import dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -87,7 +87,7 @@ def next_event(S, L, scene, smp, v, vtx, b, ws):
     w = 1.0 if (delta or strategy == NEE_ONLY) else pl * pl / (pl * pl + pb * pb)
     counts[RAYS_SHADOW] += 1
     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-    if occluded1(scene, f, u, po[0], po[1], po[2], wi[0], wi[1], wi[2], 0.0, smax, time):
+    if occluded1(scene, f, u, po, wi, 0.0, smax, time):
         return BLACK
     s = w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
@@ -109,10 +109,11 @@ def _add(L, T, c):
 def trace_path(S, L, scene, ray, smp, opts, ws):
     """Radiance along the camera ray ray = (o, d, time), already traced as lane ws[7] of the packet
     (ws[5], ws[6]); smp = (sampler, seed, pixel, index, spp); opts = (max_depth, strategy);
-    ws = (f, u, m, m32, counts, cf, cu, lane, lf, lu): scratch and counters (lf, lu: the light-shape
+    ws = (f, u, m, m32, counts, packet, lane, lf, lu): scratch and counters (lf, lu: the light-shape
     queries' ray buffer)."""
     max_depth, strategy = opts
-    f, u, m, m32, counts, cf, cu, lane, lf, lu = ws
+    f, u, m, m32, counts, packet, lane, lf, lu = ws
+    tr = Tracer(scene, f, u, m, m32, counts, 0, 0)
     sampler, seed, pixel, index, spp = smp
     o, d, time = ray
     osc = S.offset_scale[0]
@@ -127,9 +128,9 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
     depth = 0
     for v in range(max_depth + 1 + PASS_THROUGH_MAX):
         if v == 0:
-            hit = _lane_hit(cf, cu, lane, f, u)
+            hit = lane_hit(packet, lane, f, u)
         else:
-            hit = intersect1(scene, f, u, o[0], o[1], o[2], d[0], d[1], d[2], 0.0, np.inf, time)
+            hit = intersect1(scene, f, u, o, d, 0.0, np.inf, time)
             counts[RAYS_SECONDARY] += 1
         tmax = float(f[TFAR]) if hit else np.inf
         if L.shapes.shape[0] > 0:
@@ -139,8 +140,8 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
             break
         if A[0] != 1.0 or A[1] != 1.0 or A[2] != 1.0:
             T = (T[0] * A[0] ** tmax, T[1] * A[1] ** tmax, T[2] * A[2] ** tmax)
-        p, ng, ns, st, mat, model, front = _shading_point(S, scene, f, u, o, d, time, m, m32)
-        kd, ks = colors(S, mat, st)
+        sp = _shading_point(S, tr, Ray(o, d), time)
+        p, ng, ns, st, mat, model, front, kd, ks = sp.p, sp.ng, sp.ns, sp.st, sp.mat, sp.model, sp.front, sp.kd, sp.ks
         ul = sample_1d(sampler, seed, pixel, index, spp, path_dim(v, P_LOBE))
         if model == D.PREVIEW_SURFACE:
             opacity = float(mf[mat, MF_OPACITY])
@@ -194,11 +195,11 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
 @nb.njit(inline='always')
 def new_path_scratch():
     """Per-tile scratch of `path_tile`: the camera packet and the per-lane camera-stage arrays."""
-    cvalid, cf, cu = new_packet16()
+    packet = new_packet16()
     lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((4, PACKET), np.int64),
              np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
              np.zeros((6, PACKET), np.uint32))
-    return (cvalid, cf, cu), lanes
+    return packet, lanes
 
 
 @nb.njit(**SHADING_JIT)
@@ -225,7 +226,7 @@ def _camera_samples(cam, frame, opts, lanes, n):
         fx, fy = filter_offset(filt, lane_u[0, j], lane_u[1, j])
         lane_f[0, j] = (lane_id[2, j] + 0.5 + fx) / width
         lane_f[1, j] = (lane_id[3, j] + 0.5 + fy) / height
-    camera_rays(cam, n, lane_f[0], lane_f[1], lane_u[2], lane_u[3], lane_t, lane_o, lane_d)
+    camera_rays(cam, n, lane_f[0], lane_f[1], (lane_u[2], lane_u[3]), lane_t, lane_o, lane_d)
 
 
 @nb.njit(**SHADING_JIT)
@@ -236,7 +237,7 @@ def path_tile(S, L, scene, cam, box, frame, opts, ws, accum):
     width, height, s0, s1, spp = frame
     sampler, filt, seed, max_depth, use_lens, use_time, strategy = opts
     f, u, m, m32, counts, packet, lanes, lf, lu = ws
-    cvalid, cf, cu = packet
+    cvalid = packet.valid
     lane_o, lane_d, lane_ts, lane_id, lane_u, lane_f, lane_pi, work = lanes
     total = (x1 - x0) * (y1 - y0) * (s1 - s0)
     nidx = s0
@@ -263,15 +264,15 @@ def path_tile(S, L, scene, cam, box, frame, opts, ws, accum):
                     ny += 1
         _camera_samples(cam, frame, opts, lanes, n)
         for j in range(n):
-            set_ray16(cvalid, cf, cu, j, lane_o[0, j], lane_o[1, j], lane_o[2, j], lane_d[0, j], lane_d[1, j],
-                      lane_d[2, j], cam[C_NEAR], cam[C_FAR], lane_ts[0, j])
-        intersect16(scene, cvalid, cf)
+            set_ray16(packet, j, (lane_o[0, j], lane_o[1, j], lane_o[2, j]), (lane_d[0, j], lane_d[1, j], lane_d[2, j]),
+                      cam[C_NEAR], cam[C_FAR], lane_ts[0, j])
+        intersect16(scene, packet)
         counts[RAYS_CAMERA] += n
         for j in range(n):
             c = trace_path(S, L, scene, ((lane_o[0, j], lane_o[1, j], lane_o[2, j]),
                                          (lane_d[0, j], lane_d[1, j], lane_d[2, j]), lane_ts[0, j]),
                            (sampler, seed, lane_id[0, j], lane_id[1, j], spp), (max_depth, strategy),
-                           (f, u, m, m32, counts, cf, cu, j, lf, lu))
+                           (f, u, m, m32, counts, packet, j, lf, lu))
             if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
                 x = lane_id[2, j]
                 y = lane_id[3, j]
