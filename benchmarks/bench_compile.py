@@ -31,7 +31,7 @@ from rtc.compiler.api import compile_file  # noqa: E402
 from rtc.compiler.bounds import check_transforms, world_bounds  # noqa: E402
 from rtc.compiler.diagnostics import Diagnostics  # noqa: E402
 from rtc.compiler.obj import load_obj  # noqa: E402
-from rtc.compiler.usd_writer import AssetPlan, RenderOptions, write_scene  # noqa: E402
+from rtc.compiler.usd_writer import AssetPlan, CompileOptions, write_scene  # noqa: E402
 from rtc.compiler.xml_reader import read_scene  # noqa: E402
 
 DRAGON = REPO.parent / "shared" / "corpus" / "course" / "scenes_B" / "objFiles" / "dragon.obj"
@@ -103,7 +103,7 @@ def phase_times(xml: Path, out: Path) -> dict[str, float]:
         bounds = world_bounds(scene, meshes)
         lap("prepare")
         plan = AssetPlan(anchor=out.parent, side_dir=f"{out.stem}_assets", meshes_inline=out.suffix != ".usda")
-        written = write_scene(scene, meshes, RenderOptions(), plan, bounds,
+        written = write_scene(scene, meshes, CompileOptions(), plan, bounds,
                               placements_as_text=out.suffix == ".usda")
         lap("author")
         api._export(written, out, out.parent / plan.side_dir)

@@ -48,6 +48,7 @@ from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
                                             N_COUNTERS, n_tiles, render_pass)
 from rtc.renderer.kernel.ray_record import R_DX, R_OX, R_TFAR, R_TIME, R_TNEAR, new_ray_record  # noqa: E402
+from rtc.renderer.options import resolve  # noqa: E402
 
 KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
 PACKETED = ('camera', 'shadow0')            # the kinds the renderer itself traces in packets
@@ -68,7 +69,7 @@ def load(path: str):
 def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     """The rays of samples [0, spp) of every pixel, traced as one pass (so that the packets hold 16
     samples of one pixel, as in a long render's passes), by kind, each as float32 arrays in traced order."""
-    o = opts.resolved(r.desc.settings)
+    o = resolve(opts, r.desc.settings)
     ntiles = n_tiles(o.width, o.height)
     rec = new_ray_record(ntiles, cap)
     render_pass(r.built.data, r.built.handle, r.pass_params(o, 0, spp), np.zeros((o.height, o.width, 3)),
@@ -110,7 +111,8 @@ def bench_scene(path: str, a) -> dict:
     row['load_s'] = time.perf_counter() - t0
     row['rss_load_mb'] = peak_rss_mb()
     opts = RenderOptions(width=a.width, height=a.height, spp=a.spp, seed=a.seed, sampler=a.sampler,
-                         max_depth=a.max_depth).resolved(desc.settings)
+                         max_depth=a.max_depth)
+    opts = resolve(opts, desc.settings)
     t0 = time.perf_counter()
     r = Renderer(desc, threads=a.threads)
     row['build_s'] = time.perf_counter() - t0

@@ -28,13 +28,12 @@ from .bounds import check_transforms, world_bounds
 from .diagnostics import CompileError, Diagnostic, Diagnostics
 from .obj import ObjError, ObjMesh, load_obj
 from .scene import MeshFile, Scene
-from .usd_writer import AssetPlan, RenderOptions, WrittenScene, write_scene
+from .usd_writer import AssetPlan, CompileOptions, WrittenScene, write_scene
 from .xml_reader import read_scene
 
-#: Limits for command-line render parameters (hostile-input guard, issue #6).
-MAX_SIDE = 32768
-MAX_PIXELS = 1 << 27                     # 134 M pixels (e.g. 16384 x 8192)
-MAX_SPP = 1 << 16
+#: Sizes and sample counts are written as USD ints; what can be rendered is the renderer's to decide
+#: (rtc.renderer.options), against the stage's render settings and its own command line.
+MAX_INT = 2 ** 31 - 1
 DEFAULT_WIDTH = 512
 OUTPUT_SUFFIXES = (".usda", ".usdc", ".usd")
 ENVIRONMENT_FILE = "environment_latlong.exr"
@@ -58,7 +57,7 @@ def _no_cyclic_gc():
 class _Compiled:
     scene: Scene
     meshes: dict[Path, ObjMesh]
-    options: RenderOptions
+    options: CompileOptions
     bounds: object
     diags: Diagnostics
 
@@ -123,7 +122,7 @@ def check(xml_path, *, width: Optional[int] = None, height: Optional[int] = None
 
 # ----------------------------------------------------------------------------- front end
 def _front_end(path: Path, width, height, spp, focus_distance, lens_radius) -> _Compiled:
-    options = _render_options(width, height, spp, focus_distance, lens_radius)
+    options = _compile_options(width, height, spp, focus_distance, lens_radius)
     diags = Diagnostics(str(path))
     scene = read_scene(path, diags)
     meshes = _load_meshes(scene, diags)
@@ -132,25 +131,21 @@ def _front_end(path: Path, width, height, spp, focus_distance, lens_radius) -> _
     return _Compiled(scene, meshes, options, world_bounds(scene, meshes), diags)
 
 
-def _render_options(width, height, spp, focus_distance, lens_radius) -> RenderOptions:
+def _compile_options(width, height, spp, focus_distance, lens_radius) -> CompileOptions:
     diags = Diagnostics("command line")
     if width is None and height is None:
         width = height = DEFAULT_WIDTH
     width = width if width is not None else height          # course: height defaults to width
     height = height if height is not None else width
-    for flag, value in (("--width", width), ("--height", height)):
-        if not 1 <= value <= MAX_SIDE:
-            diags.error(f"{flag} {value} is out of range (1 to {MAX_SIDE})")
-    if 1 <= width <= MAX_SIDE and 1 <= height <= MAX_SIDE and width * height > MAX_PIXELS:
-        diags.error(f"{width} x {height} = {width * height} pixels is more than the limit of {MAX_PIXELS}")
-    if spp is not None and not 1 <= spp <= MAX_SPP:
-        diags.error(f"--spp {spp} is out of range (1 to {MAX_SPP})")
+    for flag, value in (("--width", width), ("--height", height), ("--spp", spp)):
+        if value is not None and not 1 <= value <= MAX_INT:
+            diags.error(f"{flag} {value} is out of range (1 to {MAX_INT})")
     if focus_distance is not None and not (math.isfinite(focus_distance) and focus_distance > 0):
         diags.error(f"--focus-distance must be a positive number, got {focus_distance}")
     if lens_radius is not None and not (math.isfinite(lens_radius) and lens_radius >= 0):
         diags.error(f"--lens-radius must be a number >= 0, got {lens_radius}")
     diags.raise_if_errors()
-    return RenderOptions(width, height, spp, focus_distance, lens_radius)
+    return CompileOptions(width, height, spp, focus_distance, lens_radius)
 
 
 def _load_meshes(scene: Scene, diags: Diagnostics) -> dict[Path, ObjMesh]:

@@ -30,8 +30,10 @@ _OP_TYPES = {"translate": _T.Double3, "scale": _T.Double3, "rotateX": _T.Double,
 
 
 @dataclass
-class RenderOptions:
-    """Command-line render parameters that end up in the USD (course section 10)."""
+class CompileOptions:
+    """Command-line parameters of a compile that end up in the USD (course section 10): the render
+    settings' resolution and samples per pixel, the camera's depth of field.  The renderer resolves
+    them against its own command line and decides what it can render."""
 
     width: int = 512
     height: int = 512
@@ -88,7 +90,7 @@ def reference_distance(light: Light, bounds) -> float:
     return d if d > 0.0 and math.isfinite(d) else 1.0
 
 
-def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: RenderOptions, assets: AssetPlan,
+def write_scene(scene: Scene, meshes: dict[Path, ObjMesh], options: CompileOptions, assets: AssetPlan,
                 bounds, environment_asset: Optional[str] = None,
                 placements_as_text: bool = False) -> WrittenScene:
     """Author the scene.  `environment_asset` is the asset path of the lat-long image already
@@ -183,7 +185,7 @@ def _gf(m: np.ndarray) -> Gf.Matrix4d:
     return Gf.Matrix4d(*np.asarray(m, dtype=np.float64).T.ravel().tolist())
 
 
-def _camera(stage: Usd.Stage, scene: Scene, options: RenderOptions, bounds) -> Sdf.Path:
+def _camera(stage: Usd.Stage, scene: Scene, options: CompileOptions, bounds) -> Sdf.Path:
     c = scene.camera
     cam = UsdGeom.Camera.Define(stage, "/World/Camera")
     cam.MakeMatrixXform().Set(_gf(camera_frame(c)))
@@ -359,10 +361,13 @@ def _rtc_parameters(prim: Usd.Prim, s: Shader, assets: AssetPlan) -> None:
                 Sdf.AssetPath(assets.asset_path(texture.path)))
 
 
-def _render_settings(stage: Usd.Stage, scene: Scene, options: RenderOptions, camera_path) -> None:
+def _render_settings(stage: Usd.Stage, scene: Scene, options: CompileOptions, camera_path) -> None:
     UsdGeom.Scope.Define(stage, "/Render")
     settings = UsdRender.Settings.Define(stage, "/Render/Settings")
     settings.CreateResolutionAttr(Gf.Vec2i(options.width, options.height))
+    # the course keeps the image plane width W and derives its height from the image's aspect ratio
+    # (the course camera model, H = W * ny / nx), whatever size the renderer is asked for
+    settings.CreateAspectRatioConformPolicyAttr(UsdRender.Tokens.adjustApertureHeight)
     settings.CreateCameraRel().SetTargets([camera_path])
     prim = settings.GetPrim()
     if options.spp is not None:

@@ -170,13 +170,15 @@ class Camera:
 
 @dataclass
 class RenderSettings:
-    width: int = 640
-    height: int = 480
+    """What the stage's UsdRender.Settings prim says (None: not authored; `rtc.renderer.options.resolve`
+    fills in what is asked for and the defaults)."""
+    width: Optional[int] = None
+    height: Optional[int] = None
     samples_per_pixel: Optional[int] = None
     camera_path: Optional[str] = None
-    max_depth: Optional[int] = None
     disable_motion_blur: bool = False
     disable_depth_of_field: bool = False
+    path: Optional[str] = None              # the settings prim, for messages
 
 
 @dataclass
@@ -195,6 +197,7 @@ class SceneDescription:
     up_axis: str = 'Y'                      # authored up axis (the description itself is always Y-up)
     warnings: list[str] = field(default_factory=list)
     skipped: list[str] = field(default_factory=list)   # what could not be loaded, with reasons
+    options: Optional[object] = None        # the RenderOptions the reader resolved (and fitted the camera to)
 
     # -- summaries used by `rtc info`, the benchmarks and the tests
     def triangle_counts(self) -> tuple[int, int]:

@@ -6,3 +6,8 @@ class SceneError(Exception):
 
     The message names the file (and the prim path when one prim is at fault); command-line
     front ends print it without a traceback."""
+
+
+class RenderError(Exception):
+    """Invalid render options (bad sizes, unknown sampler...) or a checkpoint that does not fit;
+    the message says which value and where it came from."""

@@ -19,49 +19,17 @@ from pathlib import Path
 
 import click
 
-EXIT_OK, EXIT_WARNINGS, EXIT_ERROR, EXIT_INTERRUPTED = 0, 1, 2, 130
+from .exits import EXIT_INTERRUPTED, fail as _fail
+from .renderer_params import RendererCommand, renderer_option
+from .scene_input import checked_options, load_scene
+
+__all__ = ['main', 'load_scene', 'checked_options']
 
 
 @click.group(context_settings={'help_option_names': ['-h', '--help']})
 @click.version_option(package_name='rtc')
 def main():
     """rtc: course XML scenes -> OpenUSD -> Cook-style distribution ray tracing on Embree."""
-
-
-def _fail(message: str, code: int = EXIT_ERROR):
-    click.echo(f'rtc: error: {message}', err=True)
-    sys.exit(code)
-
-
-def load_scene(path: str, *, camera=None, width=None, height=None, spp=None, time=None, quiet=False):
-    """A SceneDescription from a USD file, or from a course XML file compiled in memory."""
-    from .renderer.errors import SceneError
-    from .renderer.usd.stage import read_stage
-    p = Path(path)
-    if not p.exists():
-        _fail(f'{path}: no such file')
-    source = path
-    if p.suffix.lower() == '.xml':
-        from .compiler.api import compile_to_stage
-        from .compiler.diagnostics import CompileError
-        try:
-            stage, diags = compile_to_stage(path, width=width, height=height, spp=spp)
-        except CompileError as e:
-            for d in e.diagnostics:
-                click.echo(str(d), err=True)
-            sys.exit(EXIT_ERROR)
-        if not quiet:
-            for d in diags:
-                click.echo(str(d), err=True)
-        source = stage
-    try:
-        desc = read_stage(source, time=time, camera_path=camera, width=width, height=height, spp=spp)
-    except SceneError as e:
-        _fail(str(e))
-    if not quiet:
-        for w in desc.warnings:
-            click.echo(f'{path}: warning: {w}', err=True)
-    return desc
 
 
 class _StopFlag:
@@ -83,75 +51,81 @@ class _StopFlag:
         signal.signal(signal.SIGTERM, self)
 
 
-@main.command('render')
+def _checkpoint_path(output: str) -> Path:
+    """OUTPUT.ckpt.npz beside an output image whose format and directory are usable."""
+    from .renderer.host.film import LINEAR_FORMATS, SRGB_FORMATS
+    out = Path(output)
+    formats = {**LINEAR_FORMATS, **SRGB_FORMATS}
+    if out.suffix.lower() not in formats:
+        _fail(f"{output}: unsupported image format '{out.suffix}' (use one of {', '.join(sorted(formats))})")
+    if not out.parent.exists():
+        _fail(f'{output}: directory {out.parent} does not exist')
+    return out.with_name(out.name + '.ckpt.npz')
+
+
+def _resumed_film(ckpt_path: Path, resolved):
+    """The film of a checkpoint rendered with the same image-defining options as `resolved`."""
+    from .renderer.host.film import Film, FilmError
+    from .renderer.options import IMAGE_OPTIONS
+    if not ckpt_path.exists():
+        _fail(f'--resume: no checkpoint {ckpt_path}')
+    try:
+        film = Film.from_checkpoint(ckpt_path)
+    except FilmError as e:
+        _fail(str(e))
+    for k in IMAGE_OPTIONS:
+        if k in film.meta and film.meta[k] != getattr(resolved, k):
+            _fail(f'--resume: checkpoint was rendered with {k}={film.meta[k]}, not {getattr(resolved, k)}')
+    return film
+
+
+@main.command('render', cls=RendererCommand)
 @click.argument('scene', type=click.Path(dir_okay=False))
 @click.option('-o', '--output', required=True, type=click.Path(dir_okay=False),
               help='Image to write: .exr (linear float), .png/.jpg/.tif (sRGB).')
-@click.option('--width', type=int, help='Image width (default: the stage render settings).')
-@click.option('--height', type=int, help='Image height (default: keeps the settings aspect).')
-@click.option('--spp', type=int, help='Samples per pixel (default: render settings, else 16).')
-@click.option('--sampler', type=click.Choice(['independent', 'stratified', 'cmj', 'sobol']), default='sobol',
-              show_default=True)
-@click.option('--filter', 'filter_', type=click.Choice(['box', 'tent', 'gaussian']), default='gaussian',
-              show_default=True, help='Pixel reconstruction filter.')
-@click.option('--seed', type=int, default=0, show_default=True)
-@click.option('--max-depth', type=int, default=4, show_default=True, help='Specular bounces (course default 4).')
+@click.option('--width', type=int, help='Image width (default: the stage render settings; only --height '
+                                         'given: keeps their aspect).')
+@click.option('--height', type=int, help='Image height (default: the stage render settings; only --width '
+                                          'given: keeps their aspect).')
+@click.option('--spp', type=int, help='Samples per pixel (default: the stage render settings, else 16).')
+@renderer_option('--sampler', key='sampler')
+@renderer_option('--filter', 'filter', key='filter', help='Pixel reconstruction filter.')
+@renderer_option('--seed', key='seed', type=int)
+@renderer_option('--max-depth', key='max_depth', type=int, help='Specular bounces (course default 4).')
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--camera', help='USD path of the camera to render through.')
 @click.option('--checkpoint', type=float, metavar='SECONDS',
               help='Write the accumulated state every SECONDS beside the output (OUTPUT.ckpt.npz).')
 @click.option('--resume', is_flag=True, help='Continue from OUTPUT.ckpt.npz.')
 @click.option('-q', '--quiet', is_flag=True)
-def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_depth, threads, camera,
-               checkpoint, resume, quiet):
+def render_cmd(scene, output, camera, checkpoint, resume, quiet, **asked):
     """Render SCENE (USD, or course XML compiled in memory) to OUTPUT."""
-    from .renderer.host import film as film_mod
+    # every option not named in the signature is a RenderOptions field (`asked`): a new render option
+    # is a click option above and a field in renderer/options.py (docs/architecture.md)
+    from .renderer.errors import RenderError
+    from .renderer.host.film import FilmError, write_image
     from .renderer.host.progress import Progress, summary_line
-    from .renderer.host.render import RenderError, RenderOptions, Renderer
+    from .renderer.host.render import Renderer
+    from .renderer.options import IMAGE_OPTIONS
 
-    out = Path(output)
-    formats = {**film_mod.LINEAR_FORMATS, **film_mod.SRGB_FORMATS}
-    if out.suffix.lower() not in formats:
-        _fail(f"{output}: unsupported image format '{out.suffix}' (use one of {', '.join(sorted(formats))})")
-    if not out.parent.exists():
-        _fail(f'{output}: directory {out.parent} does not exist')
-    ckpt_path = out.with_name(out.name + '.ckpt.npz')
-    opts = RenderOptions(width=width, height=height, spp=spp, sampler=sampler, filter=filter_, seed=seed,
-                         max_depth=max_depth, threads=threads)
-    try:        # absurd command-line values fail before the scene is read (sizes from the file: below)
-        RenderOptions(**{**opts.__dict__, 'width': width or 1, 'height': height or 1, 'spp': spp or 1}).validate()
-    except RenderError as e:
-        _fail(str(e))
+    ckpt_path = _checkpoint_path(output)
+    asked = checked_options(**asked)
     if checkpoint is not None and not 0 < checkpoint < float('inf'):
         _fail(f'--checkpoint must be a positive number of seconds, got {checkpoint}')
-    desc = load_scene(scene, camera=camera, width=width, height=height, spp=spp, quiet=quiet)
-    try:
-        resolved = opts.resolved(desc.settings)
-    except RenderError as e:
-        _fail(str(e))
-    film = None
-    if resume:
-        if not ckpt_path.exists():
-            _fail(f'--resume: no checkpoint {ckpt_path}')
-        try:
-            film = film_mod.Film.from_checkpoint(ckpt_path)
-        except film_mod.FilmError as e:
-            _fail(str(e))
-        saved = film.meta
-        for k in ('sampler', 'filter', 'seed', 'max_depth', 'spp', 'width', 'height'):
-            if k in saved and saved[k] != getattr(resolved, k):
-                _fail(f'--resume: checkpoint was rendered with {k}={saved[k]}, not {getattr(resolved, k)}')
+    desc = load_scene(scene, camera=camera, options=asked, quiet=quiet)
+    resolved = desc.options
+    film = _resumed_film(ckpt_path, resolved) if resume else None
     stop = _StopFlag()
     stop.install()
     last_ckpt = [time.monotonic()]
-    settings = {k: getattr(resolved, k) for k in ('sampler', 'filter', 'seed', 'max_depth', 'spp', 'width', 'height')}
+    settings = {k: getattr(resolved, k) for k in IMAGE_OPTIONS}
 
     def save_checkpoint(res):
         res.film.meta.update(settings)
         res.film.to_checkpoint(ckpt_path)
 
     try:
-        with Renderer(desc, threads=threads) as r:
+        with Renderer(desc, threads=resolved.threads) as r:
             progress = Progress(resolved.width, resolved.height, resolved.spp, quiet=quiet)
             done = [film.spp if film else 0, 0]
             progress.update(done[0], 0)
@@ -167,11 +141,9 @@ def render_cmd(scene, output, width, height, spp, sampler, filter_, seed, max_de
             progress.close()
     except RenderError as e:
         _fail(str(e))
-    meta = res.metadata()
-    meta['rtc:scene'] = str(scene)
     try:
-        film_mod.write_image(output, res.image, meta)
-    except film_mod.FilmError as e:
+        write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)})
+    except FilmError as e:
         _fail(str(e))
     if res.interrupted or checkpoint:
         save_checkpoint(res)

@@ -9,25 +9,20 @@ the scene as `<scene>.ref-<hash>.exr` (hash of the scene file's bytes and the re
 """
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import click
 
-EXIT_ERROR = 2
+from .exits import fail as _fail
+from .renderer_params import RendererCommand, renderer_option
+from .scene_input import checked_options, load_scene
 
 
-def _fail(message: str):
-    click.echo(f'rtc: error: {message}', err=True)
-    sys.exit(EXIT_ERROR)
-
-
-@click.command('converge')
+@click.command('converge', cls=RendererCommand)
 @click.argument('scene', type=click.Path(dir_okay=False))
 @click.option('-o', '--output', 'prefix', type=click.Path(dir_okay=False),
               help='Output prefix: PREFIX.csv and PREFIX.png (default: the scene path without suffix + .converge).')
-@click.option('--samplers', default='independent,stratified,cmj,sobol', show_default=True,
-              help='Comma-separated samplers to compare.')
+@renderer_option('--samplers', key='samplers', help='Comma-separated samplers to compare.')
 @click.option('--max-spp', type=int, default=64, show_default=True, help='Largest sample count (1, 2, 4, ... up to it).')
 @click.option('--min-spp', type=int, default=1, show_default=True, help='Smallest sample count.')
 @click.option('--seeds', type=int, default=1, show_default=True, help='Renders per point (different seeds).')
@@ -35,14 +30,13 @@ def _fail(message: str):
 @click.option('--reference-spp', type=int, help='Reference samples per pixel (default 16 x max-spp).')
 @click.option('--reference-seeds', type=int, default=4, show_default=True,
               help='The reference is the mean of this many renders with distinct seeds.')
-@click.option('--reference-sampler', type=click.Choice(['independent', 'stratified', 'cmj', 'sobol']),
-              default='sobol', show_default=True)
+@renderer_option('--reference-sampler', key='sampler')
 @click.option('--no-cache', is_flag=True, help='Do not read or write the cached reference beside the scene.')
 @click.option('--width', type=int, help='Image width (default: the scene render settings).')
-@click.option('--height', type=int, help='Image height (default: keeps the settings aspect).')
-@click.option('--filter', 'filter_', type=click.Choice(['box', 'tent', 'gaussian']), default='gaussian',
-              show_default=True)
-@click.option('--max-depth', type=int, default=4, show_default=True)
+@click.option('--height', type=int, help='Image height (default: the scene render settings; only --width '
+                                          'given: keeps their aspect).')
+@renderer_option('--filter', 'filter_', key='filter')
+@renderer_option('--max-depth', key='max_depth', type=int)
 @click.option('--threads', type=int, help='Worker threads (default: all cores).')
 @click.option('--metric', type=click.Choice(['rmse', 'relmse']), default='rmse', show_default=True,
               help='Error plotted and fitted (both are always in the CSV).')
@@ -54,14 +48,13 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
     """Error (RMSE and relMSE against a reference) of SCENE rendered at 1, 2, 4, ... --max-spp samples
     per pixel with each sampler, against spp and against wall-clock seconds."""
     from .renderer.host import converge as C
+    from .renderer.kernel.samplers import SAMPLER_NAMES
     from .renderer.host.film import FilmError, read_image
-    from .renderer.host.render import RenderError, RenderOptions
-    from .cli import load_scene
 
     names = [s.strip() for s in samplers.split(',') if s.strip()]
-    bad = [s for s in names if s not in C.SAMPLERS]
+    bad = [s for s in names if s not in SAMPLER_NAMES]
     if not names or bad:
-        _fail(f"--samplers: unknown sampler(s) {', '.join(bad) or '(none)'} (choose from {', '.join(C.SAMPLERS)})")
+        _fail(f"--samplers: unknown sampler(s) {', '.join(bad) or '(none)'} (choose from {', '.join(SAMPLER_NAMES)})")
     if max_spp < 1 or min_spp < 1 or min_spp > max_spp or seeds < 1 or reference_seeds < 1:
         _fail('--max-spp, --min-spp, --seeds and --reference-seeds must be positive (min-spp <= max-spp)')
     ref_spp = reference_spp or 16 * max_spp
@@ -72,11 +65,9 @@ def converge_cmd(scene, prefix, samplers, max_spp, min_spp, seeds, reference, re
         _fail(f'{prefix}: directory {prefix.parent} does not exist')
     log = (lambda s: None) if quiet else (lambda s: click.echo(s, err=True))
 
-    desc = load_scene(scene, width=width, height=height, quiet=quiet)
-    try:
-        o = RenderOptions(width=width, height=height, filter=filter_, max_depth=max_depth).resolved(desc.settings)
-    except RenderError as e:
-        _fail(str(e))
+    asked = checked_options(width=width, height=height, filter=filter_, max_depth=max_depth, threads=threads)
+    desc = load_scene(scene, options=asked, quiet=quiet)
+    o = desc.options
     ref_img, cache = None, None
     if reference:
         try:

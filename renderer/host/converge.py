@@ -4,8 +4,8 @@ A convergence study renders one scene at a sequence of sample counts (1, 2, 4, .
 with each sampler and each of K seeds, and measures every image against a reference:
 
 * **RMSE** = sqrt(mean over pixels and channels of (x - ref)^2), linear RGB, numpy
-  (`renderer.metrics.rmse`; absolute, dominated by bright pixels);
-* **relMSE** = mean((x - ref)^2 / (ref^2 + 0.01)) (`renderer.metrics.rel_mse`; the usual HDR metric).
+  (`rtc.renderer.host.metrics.rmse`; absolute, dominated by bright pixels);
+* **relMSE** = mean((x - ref)^2 / (ref^2 + 0.01)) (`rtc.renderer.host.metrics.rel_mse`; the usual HDR metric).
 
 Over K seeds a point's error is the root of the *mean MSE* (an RMS over seeds, as in
 /work/shared/peers-and-sampling.md) and its spread is the min/max over seeds.  The convergence rate
@@ -30,7 +30,7 @@ import csv
 import hashlib
 import math
 import os
-from dataclasses import asdict, dataclass
+from dataclasses import asdict, dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -38,9 +38,11 @@ import numpy as np
 from .. import description as D
 from .film import read_image, write_image
 from .metrics import rel_mse, rmse
-from .render import RenderOptions, Renderer
+from ..kernel.samplers import SAMPLER_NAMES
+from ..options import RenderOptions, resolve
+from .render import Renderer
 
-SAMPLERS = ('independent', 'stratified', 'cmj', 'sobol')
+SAMPLERS = tuple(SAMPLER_NAMES)
 REFERENCE_SEED_BASE = 0x5EF00000      # reference seeds: never used by measured renders (0..K-1)
 CSV_COLUMNS = ('sampler', 'spp', 'seed', 'seconds', 'rmse', 'relmse')
 
@@ -119,8 +121,7 @@ def render_reference(renderer: Renderer, base: RenderOptions, spp: int, chunks: 
     per = max(1, -(-int(spp) // chunks))
     acc = None
     for k in range(chunks):
-        o = RenderOptions(**{**base.__dict__, 'spp': per, 'sampler': sampler,
-                             'seed': REFERENCE_SEED_BASE + k})
+        o = replace(base, spp=per, sampler=sampler, seed=REFERENCE_SEED_BASE + k)
         img = renderer.render(o).image.astype(np.float64)
         acc = img if acc is None else acc + img
     return acc / chunks
@@ -129,7 +130,7 @@ def render_reference(renderer: Renderer, base: RenderOptions, spp: int, chunks: 
 def load_or_render_reference(renderer: Renderer, base: RenderOptions, spp: int, chunks: int, sampler: str,
                              cache: Path | None, log=lambda s: None) -> np.ndarray:
     """The cached reference at `cache` if it exists and has the right size, else render and store it."""
-    o = base.resolved(renderer.desc.settings)
+    o = resolve(base, renderer.desc.settings)
     if cache is not None and Path(cache).exists():
         img = read_image(cache)
         if img.shape[:2] == (o.height, o.width):
@@ -150,17 +151,16 @@ def measure(renderer: Renderer, reference: np.ndarray, base: RenderOptions, samp
             spps=(1, 2, 4, 8, 16), seeds: int = 1, on_point=None) -> list[Point]:
     """Render every (sampler, spp, seed) once and measure it against `reference` (h, w, 3)."""
     reference = np.asarray(reference, np.float64)
-    o = base.resolved(renderer.desc.settings)
+    o = resolve(base, renderer.desc.settings)
     if reference.shape != (o.height, o.width, 3):
         raise ValueError(f'reference is {reference.shape[1]}x{reference.shape[0]}, '
                          f'render is {o.width}x{o.height}')
-    renderer.render(RenderOptions(**{**base.__dict__, 'spp': 1, 'sampler': samplers[0]}))   # warm-up
+    renderer.render(replace(base, spp=1, sampler=samplers[0]))   # warm-up
     points = []
     for sampler in samplers:
         for spp in spps:
             for seed in range(seeds):
-                r = renderer.render(RenderOptions(**{**base.__dict__, 'spp': int(spp), 'sampler': sampler,
-                                                     'seed': seed}))
+                r = renderer.render(replace(base, spp=int(spp), sampler=sampler, seed=seed))
                 p = Point(sampler, int(spp), seed, r.stats.seconds, rmse(r.image, reference),
                           rel_mse(r.image, reference))
                 points.append(p)

@@ -1,7 +1,7 @@
 """Film: progressive sample accumulation, checkpoints, and atomic image output via OpenImageIO.
 
 Accumulation
-    With filter importance sampling (``renderer.filters``) every sample has weight 1 and lands in
+    With filter importance sampling (``rtc.renderer.kernel.filters``) every sample has weight 1 and lands in
     its own pixel only, so a pixel's estimate is (sum of its sample radiances) / (its sample
     count).  ``Film`` keeps float64 sums (h, w, 3) and int64 counts (h, w); the integrator renders
     passes (whole image or tiles) and adds each pass's per-pixel sums with ``add_pass``.  Inside
@@ -35,6 +35,8 @@ from numba import njit
 
 import OpenImageIO as oiio
 
+from ..images import read_pixels, srgb_decode, srgb_encode       # srgb_*: re-exported for the tests
+
 LINEAR_FORMATS = {'.exr': 'openexr'}
 SRGB_FORMATS = {'.png': 'uint8', '.jpg': 'uint8', '.jpeg': 'uint8', '.tif': 'uint16', '.tiff': 'uint16'}
 CHECKPOINT_VERSION = 1
@@ -42,19 +44,6 @@ CHECKPOINT_VERSION = 1
 
 class FilmError(RuntimeError):
     """Image or checkpoint I/O failed (unknown format, unwritable directory, bad file...)."""
-
-
-# --------------------------------------------------------------------------- sRGB transfer
-def srgb_encode(linear: np.ndarray) -> np.ndarray:
-    """Exact piecewise sRGB OETF (IEC 61966-2-1) of linear values clamped to [0, 1]."""
-    x = np.clip(np.asarray(linear, dtype=np.float64), 0.0, 1.0)
-    return np.where(x <= 0.0031308, 12.92 * x, 1.055 * np.power(x, 1.0 / 2.4) - 0.055)
-
-
-def srgb_decode(encoded: np.ndarray) -> np.ndarray:
-    """Inverse of ``srgb_encode`` (sRGB EOTF) for values in [0, 1]."""
-    v = np.asarray(encoded, dtype=np.float64)
-    return np.where(v <= 0.04045, v / 12.92, np.power((np.maximum(v, 0.04045) + 0.055) / 1.055, 2.4))
 
 
 def quantize(encoded: np.ndarray, dtype) -> np.ndarray:
@@ -291,24 +280,16 @@ def _set_typed_attribute(spec, key, value) -> None:
 def read_image(path) -> np.ndarray:
     """Read an image as linear float32 (h, w, 3): EXR/HDR as stored, 8/16-bit integer formats
     (PNG, JPEG, TIFF) decoded from sRGB.  Grey images are replicated, alpha is dropped."""
-    path = os.fspath(path)
-    inp = oiio.ImageInput.open(path)
-    if inp is None:
-        raise FilmError('cannot read %s: %s' % (path, oiio.geterror()))
+    import OpenImageIO as oiio
     try:
-        spec = inp.spec()
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
-        if pixels is None:
-            raise FilmError('cannot read %s: %s' % (path, inp.geterror()))
-        integer = spec.format.basetype in (oiio.UINT8, oiio.UINT16, oiio.INT8, oiio.INT16)
-    finally:
-        inp.close()
-    a = np.asarray(pixels, dtype=np.float32).reshape(spec.height, spec.width, spec.nchannels)
+        a, spec = read_pixels(path)
+    except OSError as e:
+        raise FilmError(f'cannot read {os.fspath(path)}: {e}') from None
     if spec.nchannels == 1:
         a = np.repeat(a, 3, axis=2)
     elif spec.nchannels == 2:
         a = np.repeat(a[..., :1], 3, axis=2)
     a = a[..., :3]
-    if integer:
-        a = srgb_decode(a).astype(np.float32)
+    if spec.format.basetype in (oiio.UINT8, oiio.UINT16, oiio.INT8, oiio.INT16):
+        a = srgb_decode(a.astype(np.float64)).astype(np.float32)
     return np.ascontiguousarray(a)

@@ -11,6 +11,7 @@ from collections import Counter
 import numpy as np
 
 from ..description import MODEL_NAMES, SceneDescription
+from ..options import resolve
 
 LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome')
 MODEL_LABELS = {v: k for k, v in MODEL_NAMES.items()}
@@ -45,7 +46,9 @@ def describe(desc: SceneDescription) -> str:
                  f'{cam.horizontal_aperture:g} x {cam.vertical_aperture:g}, lens radius {cam.lens_radius:g}, '
                  f'focus {cam.focus_distance:g}, shutter [{cam.shutter_open:g}, {cam.shutter_close:g}]'
                  + (f', {len(cam.motion)} motion samples' if cam.motion is not None else ''))
-    lines.append(f'  image {s.width} x {s.height}, spp {s.samples_per_pixel or "default"}, '
+    o = resolve(desc.options, s)
+    lines.append(f'  image {o.width} x {o.height}, spp {o.spp} '
+                 f'({"render settings " + s.path if s.path else "defaults: no render settings"}), '
                  f'background {tuple(round(x, 4) for x in desc.background)}')
     models = Counter(MODEL_LABELS.get(m.model, str(m.model)) for m in desc.materials)
     lines.append(f'  materials: {len(desc.materials)} (' + ', '.join(f'{k} {n}' for k, n in sorted(models.items()))

@@ -34,8 +34,3 @@ def rel_mse(a, ref, eps: float = 0.01) -> float:
     a, ref = _pair(a, ref)
     return float(np.mean((a - ref) ** 2 / (ref * ref + eps)))
 
-
-def mape(a, ref, eps: float = 0.01) -> float:
-    """Mean absolute percentage error, mean(|a - ref| / (|ref| + eps))."""
-    a, ref = _pair(a, ref)
-    return float(np.mean(np.abs(a - ref) / (np.abs(ref) + eps)))

@@ -8,7 +8,6 @@ checkpoint - gives a bit-identical image.  Passes grow so that each takes about 
 """
 from __future__ import annotations
 
-import os
 import time as _time
 from dataclasses import dataclass, field
 
@@ -16,6 +15,8 @@ import numba
 import numpy as np
 
 from .. import description as D
+from ..errors import RenderError
+from ..options import RenderOptions, resolve
 from .build import build
 from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
@@ -25,57 +26,7 @@ from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECO
 from ..kernel.records import PassParams
 from ..kernel.samplers import SAMPLER_NAMES
 
-MAX_PIXELS = 1 << 28          # 268 M pixels: refuse absurd sizes before allocating
-MAX_SPP = 1 << 20
-MAX_THREADS = 1024            # Embree starts every thread it is given (threads=100000 took 27 s)
-
-
-class RenderError(Exception):
-    """Invalid render options (bad sizes, unknown sampler...)."""
-
-
-@dataclass
-class RenderOptions:
-    width: int | None = None          # None: from the stage's render settings
-    height: int | None = None
-    spp: int | None = None
-    sampler: str = 'sobol'
-    filter: str = 'gaussian'
-    seed: int = 0
-    max_depth: int = 4
-    threads: int | None = None
-    pass_seconds: float = 1.0
-    depth_of_field: bool = True
-    motion_blur: bool = True
-
-    def resolved(self, settings: D.RenderSettings) -> 'RenderOptions':
-        w = self.width or settings.width
-        h = self.height or settings.height
-        if self.width and not self.height and settings.width and settings.height:
-            h = max(1, round(self.width * settings.height / settings.width))
-        spp = self.spp or settings.samples_per_pixel or 16
-        max_depth = self.max_depth if self.max_depth is not None else (settings.max_depth or 4)
-        o = RenderOptions(**{**self.__dict__, 'width': int(w), 'height': int(h), 'spp': int(spp),
-                             'max_depth': int(max_depth)})
-        o.validate()
-        return o
-
-    def validate(self):
-        if not (1 <= self.width <= 65536 and 1 <= self.height <= 65536) or self.width * self.height > MAX_PIXELS:
-            raise RenderError(f'image size {self.width}x{self.height} is out of range '
-                              f'(each side 1..65536, at most {MAX_PIXELS} pixels)')
-        if not 1 <= self.spp <= MAX_SPP:
-            raise RenderError(f'samples per pixel {self.spp} is out of range (1..{MAX_SPP})')
-        if self.sampler not in SAMPLER_NAMES:
-            raise RenderError(f"unknown sampler '{self.sampler}' (choose from {', '.join(SAMPLER_NAMES)})")
-        if self.filter not in FILTER_NAMES:
-            raise RenderError(f"unknown filter '{self.filter}' (choose from {', '.join(FILTER_NAMES)})")
-        if not 0 <= self.max_depth <= 64:
-            raise RenderError(f'max depth {self.max_depth} is out of range (0..64)')
-        if not 0 <= self.seed < 2 ** 32:
-            raise RenderError(f'seed {self.seed} is out of range (0..2^32-1)')
-        if self.threads is not None and not 1 <= self.threads <= MAX_THREADS:
-            raise RenderError(f'threads {self.threads} is out of range (1..{MAX_THREADS})')
+__all__ = ['RenderError', 'RenderOptions', 'RenderResult', 'RenderStats', 'Renderer', 'render']
 
 
 @dataclass
@@ -103,10 +54,6 @@ class RenderResult:
     options: RenderOptions
     stats: RenderStats
     interrupted: bool = False
-
-    @property
-    def spp_done(self) -> int:
-        return self.film.spp
 
     def metadata(self) -> dict:
         s = self.stats
@@ -153,13 +100,14 @@ class Renderer:
         return PassParams(ctab, o.width, o.height, s0, s1, o.spp, SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter],
                           o.seed, o.max_depth, bool(use_lens), bool(use_time))
 
-    def render(self, options: RenderOptions, *, film: Film | None = None, should_stop=lambda: False,
+    def render(self, options: RenderOptions | None = None, *, film: Film | None = None, should_stop=lambda: False,
                on_pass=None, ray_record=None) -> RenderResult:
-        """Render until `options.spp` samples per pixel (continuing `film` if given) or until
+        """Render with `options` resolved against the scene's render settings (None: the options the
+        reader resolved) until `spp` samples per pixel (continuing `film` if given) or until
         `should_stop()` is true between passes.  `on_pass(result)` is called after every pass.
         `ray_record`: None, or `ray_record.new_ray_record(n_tiles, cap)` to store the rays traced
         (benchmarks)."""
-        o = options.resolved(self.desc.settings)
+        o = resolve(options if options is not None else self.desc.options, self.desc.settings)
         ctab, use_lens, use_time = self.camera(o)
         if film is None:
             film = Film(o.width, o.height)
@@ -205,11 +153,8 @@ class Renderer:
         return result
 
 
-def render(desc: D.SceneDescription, options: RenderOptions, **kw) -> RenderResult:
+def render(desc: D.SceneDescription, options: RenderOptions | None = None, **kw) -> RenderResult:
     """One-shot convenience: build, render, release."""
-    with Renderer(desc, threads=options.threads) as r:
+    threads = (options or desc.options or RenderOptions()).threads
+    with Renderer(desc, threads=threads) as r:
         return r.render(options, **kw)
-
-
-def default_threads() -> int:
-    return len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else (os.cpu_count() or 1)

@@ -43,8 +43,9 @@ def read_render_settings(prim: Optional[Usd.Prim], time: Usd.TimeCode) -> tuple[
     if prim is None:
         return settings, background, policy
     rs = UsdRender.Settings(prim)
+    settings.path = str(prim.GetPath())
     resolution = rs.GetResolutionAttr().Get(time)
-    if resolution is not None and resolution[0] > 0 and resolution[1] > 0:
+    if resolution is not None and resolution[0] > 0 and resolution[1] > 0:    # too large: options.resolve
         settings.width, settings.height = int(resolution[0]), int(resolution[1])
     targets = rs.GetCameraRel().GetForwardedTargets()
     if targets:
@@ -82,15 +83,16 @@ def conform(h: float, v: float, aspect: float, policy: str) -> tuple[float, floa
 
 
 def read_camera(prim: Usd.Prim, matrix: np.ndarray, motion: Optional[np.ndarray], time: Usd.TimeCode,
-                settings: RenderSettings, policy: str, scene_diagonal: float, meters_per_unit: float,
+                settings: RenderSettings, fit: tuple[float, str], scene_diagonal: float, meters_per_unit: float,
                 warn: Warn) -> Camera:
     """A Camera from a UsdGeom.Camera; `matrix` is its camera-to-world transform (already in
-    the description's Y-up world), `motion` its samples over the shutter or None."""
+    the description's Y-up world), `motion` its samples over the shutter or None; `fit` is
+    (image aspect ratio, aspectRatioConformPolicy)."""
     path = str(prim.GetPath())
     cam = UsdGeom.Camera(prim)
     g = cam.GetCamera(time)
     unit = Gf.Camera.FOCAL_LENGTH_UNIT                                   # 0.1
-    h, v = conform(g.horizontalAperture, g.verticalAperture, settings.width / settings.height, policy)
+    h, v = conform(g.horizontalAperture, g.verticalAperture, *fit)
     near, far = g.clippingRange.min, g.clippingRange.max
     out = Camera(path=path, matrix=_without_scale(matrix),
                  projection='orthographic' if g.projection == Gf.Camera.Orthographic else 'perspective',
@@ -145,12 +147,12 @@ def _without_scale(m: np.ndarray) -> np.ndarray:
     return out
 
 
-def default_camera(lo: np.ndarray, hi: np.ndarray, settings: RenderSettings, policy: str) -> Camera:
+def default_camera(lo: np.ndarray, hi: np.ndarray, fit: tuple[float, str]) -> Camera:
     """A perspective camera (USD's default 50 mm lens on a 35 mm filmback) looking at the
     centre of the box [lo, hi] from the front, slightly above and to the right, far enough
     that the box's bounding sphere fills the narrower field of view."""
     base = Camera(path='<default camera>', matrix=np.eye(4))
-    h, v = conform(base.horizontal_aperture, base.vertical_aperture, settings.width / settings.height, policy)
+    h, v = conform(base.horizontal_aperture, base.vertical_aperture, *fit)
     base.horizontal_aperture, base.vertical_aperture = h, v
     if not (np.all(np.isfinite(lo)) and np.all(np.isfinite(hi)) and np.all(hi >= lo)):
         lo, hi = -np.ones(3), np.ones(3)

@@ -24,16 +24,13 @@ from typing import Callable
 import numpy as np
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
+from ..images import read_pixels, srgb_decode
 from ..description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
 _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
 _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture'}
-
-
-def srgb_to_linear(c: np.ndarray) -> np.ndarray:
-    return np.where(c <= 0.04045, c / 12.92, ((c + 0.055) / 1.055) ** 2.4).astype(np.float32)
 
 
 class MaterialTable:
@@ -199,7 +196,7 @@ class MaterialTable:
         key = (resolved, colour_space)
         if key not in self._pixels:
             try:
-                self._pixels[key] = read_image(resolved, colour_space)
+                self._pixels[key] = read_texture(resolved, colour_space)
             except OSError as exc:
                 self.warn(f'{owner}: cannot read texture {resolved}: {exc}')
                 self._pixels[key] = None
@@ -209,7 +206,7 @@ class MaterialTable:
 MAX_TEXTURE_PIXELS = 1 << 28      # 16k x 16k; decoded as float32 (a corrupt header can claim 10^10)
 
 
-def read_image(resolved: str, colour_space: str = 'auto') -> np.ndarray:
+def read_texture(resolved: str, colour_space: str = 'auto') -> np.ndarray:
     """Decode an image to float32 (h, w, c) linear values.
 
     `colour_space` follows UsdUVTexture.sourceColorSpace: 'sRGB' decodes the colour channels,
@@ -224,23 +221,11 @@ def read_image(resolved: str, colour_space: str = 'auto') -> np.ndarray:
         with tempfile.NamedTemporaryFile(suffix=suffix) as tmp:
             tmp.write(bytes(data.GetBuffer()))
             tmp.flush()
-            return read_image(tmp.name, colour_space)
-    inp = oiio.ImageInput.open(resolved)
-    if inp is None:
-        raise OSError(oiio.geterror() or 'unreadable image')
-    try:
-        spec = inp.spec()
-        if spec.width * spec.height * spec.depth > MAX_TEXTURE_PIXELS:     # header says: refuse before allocating
-            raise OSError(f'{spec.width} x {spec.height} pixels is more than the limit of {MAX_TEXTURE_PIXELS}')
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, 'float')
-    finally:
-        inp.close()
-    if pixels is None:
-        raise OSError('no pixel data')
-    pixels = np.asarray(pixels, np.float32).reshape(spec.height, spec.width, spec.nchannels)
+            return read_texture(tmp.name, colour_space)
+    pixels, spec = read_pixels(resolved, MAX_TEXTURE_PIXELS)
     tagged = str(spec.getattribute('oiio:ColorSpace') or '').lower()
     if colour_space == 'sRGB' or (colour_space == 'auto' and (
             tagged.startswith('srgb') or (not tagged and spec.format == oiio.UINT8))):
         colour = min(3, spec.nchannels if spec.nchannels != 2 else 1)
-        pixels[..., :colour] = srgb_to_linear(pixels[..., :colour])
+        pixels[..., :colour] = srgb_decode(pixels[..., :colour])
     return np.ascontiguousarray(pixels)

@@ -1,13 +1,13 @@
 """Composed USD stage -> `SceneDescription` (the renderer's only contact with pxr).
 
     desc = read_stage('scene.usda')                      # or an open Usd.Stage
-    desc = read_stage(path, time=12, camera_path='/World/Cam', width=320, height=240, spp=16)
+    desc = read_stage(path, time=12, camera_path='/World/Cam', options=RenderOptions(width=320, spp=16))
 
-The work is split the way the description is: `usd_instancing` finds the containers and
-flattens the instance graph to one level of placements, `usd_geometry` converts each
-container's gprims once, `usd_materials` resolves bindings per placement (vectorised, with
-`ComputeBoundMaterials`) and loads only the textures bound materials use, `usd_lights` and
-`usd_camera` convert the rest.  This module sequences them, applies the Z-up -> Y-up rotation
+The work is split the way the description is: `instancing` finds the containers and
+flattens the instance graph to one level of placements, `geometry` converts each
+container's gprims once, `materials` resolves bindings per placement (vectorised, with
+`ComputeBoundMaterials`) and loads only the textures bound materials use, `lights` and
+`camera` convert the rest (modules of rtc.renderer.usd).  This module sequences them, applies the Z-up -> Y-up rotation
 at the root placement (so it reaches every instance, light and the camera), and turns pxr
 diagnostics and unusable input into `SceneError` / `warnings`.
 
@@ -28,6 +28,7 @@ from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
 
 from ..description import (Container, Instances, Light, Mesh, SceneDescription, Sphere)
 from ..errors import SceneError
+from ..options import RenderOptions, resolve
 from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
                                  shutter)
 from .geometry import GeometryError, convert_gprim
@@ -40,18 +41,19 @@ MAX_DIAGNOSTICS = 50
 
 
 def read_stage(source: Union[str, os.PathLike, Usd.Stage], *, time: Optional[float] = None,
-               camera_path: Optional[str] = None, width: Optional[int] = None,
-               height: Optional[int] = None, spp: Optional[int] = None) -> SceneDescription:
+               camera_path: Optional[str] = None, options: Optional[RenderOptions] = None) -> SceneDescription:
     """Read a USD file (or an open stage) into a SceneDescription.
 
-    `time` defaults to the stage's startTimeCode; `camera_path`, `width`, `height` and `spp`
-    override the render settings.  Raises SceneError for unusable input; problems with single
-    prims become `warnings` / `skipped` entries instead."""
+    `time` defaults to the stage's startTimeCode; `camera_path` overrides the render settings'
+    camera.  `options` (what the render asks for) are resolved against the stage's render settings
+    into `desc.options`, and the camera is fitted to that image size.  Raises SceneError for
+    unusable input, RenderError for unusable options; problems with single prims become
+    `warnings` / `skipped` entries instead."""
     delegate = UsdUtils.CoalescingDiagnosticDelegate()
     label = '<memory>'
     try:
         stage, label = _open(source)
-        desc = _Reader(stage, label, time, camera_path, width, height, spp).read()
+        desc = _Reader(stage, label, time, camera_path, options).read()
     except Tf.ErrorException as exc:
         raise SceneError(f'{label}: {_first_line(exc)}') from None
     notes = [d.commentary for d in delegate.TakeUncoalescedDiagnostics()]
@@ -101,11 +103,11 @@ class _Shape:
 
 
 class _Reader:
-    def __init__(self, stage, label, time, camera_path, width, height, spp):
+    def __init__(self, stage, label, time, camera_path, options):
         self.stage, self.label = stage, label
         self.t = float(stage.GetStartTimeCode() if time is None else time)
         self.tc = Usd.TimeCode(self.t)
-        self.camera_path, self.width, self.height, self.spp = camera_path, width, height, spp
+        self.camera_path, self.options = camera_path, options
         self.warnings: list[str] = []
         self.skipped: list[str] = []
         self.materials = MaterialTable(self.tc, self.warn)
@@ -127,13 +129,8 @@ class _Reader:
         settings, background, policy = read_render_settings(settings_prim, self.tc)
         if self.camera_path:
             settings.camera_path = self.camera_path
-        if self.width and not self.height and settings.width and settings.height:
-            # only a width was asked for: keep the settings' aspect ratio (--width 48 of a
-            # 640 x 480 stage is 48 x 36, not 48 x 480)
-            settings.height = max(1, round(self.width * settings.height / settings.width))
-        settings.width = self.width or settings.width
-        settings.height = self.height or settings.height
-        settings.samples_per_pixel = self.spp or settings.samples_per_pixel
+        options = resolve(self.options, settings)
+        fit = (options.width / options.height, policy)
         camera_prim = self._camera_prim(settings.camera_path, graph.cameras)
         settings.camera_path = str(camera_prim.GetPath()) if camera_prim else None
 
@@ -151,7 +148,8 @@ class _Reader:
 
         desc = SceneDescription(source=self.label, containers=containers, instances=instances,
                                 materials=self.materials.materials, textures=self.materials.textures,
-                                lights=lights, camera=None, settings=settings, background=background,
+                                lights=lights, camera=None, settings=settings, options=options,
+                                background=background,
                                 shutter_times=tuple(float(x) for x in times),
                                 meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
                                 up_axis='Z' if up == UsdGeom.Tokens.z else 'Y',
@@ -161,10 +159,10 @@ class _Reader:
             world = [up_matrix @ _camera_world(camera_prim, x) for x in times]
             motion = np.stack(world) if len(times) > 1 and any(np.any(w != world[0]) for w in world) else None
             desc.camera = read_camera(camera_prim, up_matrix @ _camera_world(camera_prim, t), motion, self.tc,
-                                      settings, policy, float(np.linalg.norm(hi - lo)),
+                                      settings, fit, float(np.linalg.norm(hi - lo)),
                                       desc.meters_per_unit, self.warn)
         else:
-            desc.camera = default_camera(lo, hi, settings, policy)
+            desc.camera = default_camera(lo, hi, fit)
             self.warn('no camera in the stage: using a default camera framing the scene bounds')
         if not lights:
             desc.lights = default_lights(desc.camera.matrix)

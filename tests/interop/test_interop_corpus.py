@@ -98,7 +98,7 @@ def empty_reason(rel: str) -> str | None:
 
 
 def render_corpus_file(rel: str):
-    desc = read_stage(str(USD_CORPUS / rel), width=W, height=H, spp=SPP)
+    desc = read_stage(str(USD_CORPUS / rel), options=RenderOptions(width=W, height=H, spp=SPP))
     result = render(desc, RenderOptions(width=W, height=H, spp=SPP))
     return desc, result.image
 
@@ -177,7 +177,7 @@ def test_unloadable_layers_are_skipped_with_warnings(tmp_path):
     scene = tmp_path / 'scene.usda'
     scene.write_text(MISSING)
     (tmp_path / 'looks.mtlx').write_text('<?xml version="1.0"?>\n<materialx version="1.38"/>\n')
-    desc = read_stage(str(scene), width=W, height=H, spp=SPP)
+    desc = read_stage(str(scene), options=RenderOptions(width=W, height=H, spp=SPP))
     text = '\n'.join(desc.warnings)
     for name in ('does_not_exist.usda', 'looks.mtlx', 'missing_prop.usd'):
         assert name in text, text

@@ -236,6 +236,5 @@ def test_metrics_match_openimageio():
     d = img.astype(np.float64) - ref
     assert metrics.rel_mse(img, ref) == pytest.approx(np.mean(d * d / (ref.astype(np.float64) ** 2 + 0.01)))
     assert metrics.rel_mse(img, ref, eps=1.0) < metrics.rel_mse(img, ref)
-    assert metrics.mape(img, ref) > 0
     with pytest.raises(ValueError):
         metrics.rmse(img, ref[:-1])

@@ -19,6 +19,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 from rtc.renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
 from rtc.renderer.errors import SceneError
 from rtc.renderer.host.info import describe
+from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage, rotate_x
 from rtc.renderer.usd.geometry import GeometryError, convert_gprim, converter_for
 from rtc.renderer.usd.instancing import InstanceGraph
@@ -459,13 +460,15 @@ def test_render_settings_camera_and_overrides():
     rs.GetPrim().CreateAttribute('rtc:samplesPerPixel', Sdf.ValueTypeNames.Int, custom=True).Set(9)
     rs.GetPrim().CreateAttribute('rtc:backgroundColor', Sdf.ValueTypeNames.Color3f, custom=True).Set((0.1, 0.2, 0.3))
     stage.SetMetadata('renderSettingsPrimPath', '/Render/Settings')
-    desc = read_stage(stage, spp=4)
+    desc = read_stage(stage, options=RenderOptions(spp=4))
     c = desc.camera
-    assert (desc.settings.width, desc.settings.height, desc.settings.samples_per_pixel) == (300, 200, 4)
+    assert (desc.settings.width, desc.settings.height, desc.settings.samples_per_pixel) == (300, 200, 9)
+    assert (desc.options.width, desc.options.height, desc.options.spp) == (300, 200, 4)
     assert desc.background == pytest.approx((0.1, 0.2, 0.3))
     assert (c.focal_length, c.horizontal_aperture, c.vertical_aperture) == pytest.approx((5.0, 3.6, 2.4))
     assert c.lens_radius == pytest.approx(5.0 / 4) and c.focus_distance == 5.0
-    assert read_stage(stage, width=200, height=200).camera.vertical_aperture == pytest.approx(3.6)
+    assert read_stage(stage, options=RenderOptions(width=200, height=200)).camera.vertical_aperture == \
+        pytest.approx(3.6)
 
 
 def test_millimetre_lens_on_a_metre_scale_scene_is_rescaled():
