@@ -45,10 +45,10 @@ import numpy as np
 from rtc.renderer.host import film as film_mod  # noqa: E402
 from embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  (benchmarks/)
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
-from rtc.renderer.options import resolve  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
                                             N_COUNTERS, n_tiles, render_pass)
 from rtc.renderer.kernel.ray_record import R_DX, R_OX, R_TFAR, R_TIME, R_TNEAR, new_ray_record  # noqa: E402
+from rtc.renderer.options import resolve  # noqa: E402
 
 KINDS = {'camera': RAYS_CAMERA, 'shadow0': RAYS_SHADOW_PACKET, 'shadow': RAYS_SHADOW, 'secondary': RAYS_SECONDARY}
 PACKETED = ('camera', 'shadow0')            # the kinds the renderer itself traces in packets

@@ -21,7 +21,6 @@ MODULE_EXCEPTIONS = {
 }
 # (path, function) -> reason (functions over MAX_FUNCTION_LINES)
 FUNCTION_EXCEPTIONS = {
-    ('rtc/cli.py', 'render_cmd'): 'the CLI render command, being reworked by the options issue (host engineer)',
     ('renderer/usd/lights.py', 'read_light'): 'UsdLux reading, one branch per light schema (USD reader owner)',
 }
 # (path, function) -> reason (numba functions over MAX_KERNEL_PARAMS)
