@@ -31,6 +31,7 @@ def test_the_wheel_holds_only_rtc_and_every_source(wheel):
     expected = {f'{MAPPED[folder]}/{p.relative_to(REPO / folder).as_posix()}'
                 for folder in MAPPED for p in (REPO / folder).rglob('*.py') if '__pycache__' not in p.parts}
     expected.add('rtc/schemas/scene.xsd')          # package data: the compiler validates against it
+    expected |= {'rtc/schemas/plugInfo.json', 'rtc/schemas/generatedSchema.usda'}   # rtc's USD schemas
     assert expected <= set(names), sorted(expected - set(names))
     assert not [n for n in names if n.startswith('rtc/') and n not in expected], 'unexpected files in the wheel'
 

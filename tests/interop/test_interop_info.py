@@ -85,13 +85,16 @@ def test_info_on_a_compiled_scene(tmp_path):
     assert result.exit_code == 0, result.output
     assert_lines(info(usd),
                  'up axis Y (description is Y-up), metersPerUnit 1',
-                 'prototypes (containers): 2, placements: 8, motion samples: 1',
-                 f'triangles: {faces + 12} unique, {7 * faces + 12} instanced; spheres: 0 unique, 0 instanced',
+                 # one prototype per (object, shader) pair: the bunny placed with 4 shaders is 4 prototypes
+                 'prototypes (containers): 5, placements: 8, motion samples: 1',
+                 f'triangles: {4 * faces + 12} unique, {7 * faces + 12} instanced; spheres: 0 unique, 0 instanced',
                  f'/: 1 meshes (12 triangles), 0 spheres, placed 1x',
                  'lights: 1 (rect 1)',
                  'camera: /World/Camera perspective, focal length 0.45, aperture 0.5 x 0.5, lens radius 0',
                  'image 512 x 512',
                  'materials: 5 (blinnPhong 1, blinnPhongMirrored 1, dielectric 1, glaze 2), material sets: 5',
                  'warnings: 0', 'skipped: 0')
-    # the bunny prototype is the other container, placed seven times
-    assert any(line.endswith(f'1 meshes ({faces} triangles), 0 spheres, placed 7x') for line in info(usd))
+    # the bunny prototypes are the other containers, placed seven times in all
+    placed = [int(line.rsplit(' ', 1)[1][:-1]) for line in info(usd) if line.endswith('x') and
+              f'1 meshes ({faces} triangles)' in line]
+    assert sorted(placed) == [1, 2, 2, 2]
