@@ -76,7 +76,7 @@ class _Usage(Exception):
 
 
 def render_shot(scene, output, camera, checkpoint, resume, quiet, frames_spec, frame_spec, workers, scheduler,
-                **asked):
+                strict=False, **asked):
     """`rtc render` with shot options: `asked` are the render options of the command line."""
     from .renderer.host import film as film_mod
     from .renderer.host.shots.frames import ShotError, output_name
@@ -87,6 +87,9 @@ def render_shot(scene, output, camera, checkpoint, resume, quiet, frames_spec, f
         frames = _frames(frames_spec, frame_spec, output)
     except (ShotError, _Usage) as e:
         _fail(str(e))
+    if strict:
+        _fail('--strict is for single renders (rtc render SCENE -o IMAGE --strict): check the scene once that '
+              'way, then render the shot')
     if checkpoint is not None:
         _fail('--checkpoint is for single renders; a shot writes every frame when it is complete '
               '(re-run with --resume to skip the frames already written)')

@@ -96,8 +96,11 @@ def test_cli_choices_and_defaults_are_the_renderers():
     params = {p.name: p for p in main.commands['render'].params}
     assert list(params['sampler'].type.choices) == list(SAMPLER_NAMES)
     assert list(params['filter'].type.choices) == list(FILTER_NAMES)
-    assert [params[k].default for k in ('sampler', 'filter', 'seed', 'max_depth')] == \
-           [O.DEFAULTS[k] for k in ('sampler', 'filter', 'seed', 'max_depth')]
+    assert [params[k].default for k in ('sampler', 'filter', 'seed')] == \
+           [O.DEFAULTS[k] for k in ('sampler', 'filter', 'seed')]
+    assert 'max_depth' not in O.DEFAULTS        # no CLI default: the integrator's own (pbrt's 8 for path, 4 for cook)
+    assert [O.resolve(O.RenderOptions(integrator=k), RenderSettings()).max_depth for k in ('path', 'cook')] == [8, 4]
+    assert list(params['integrator'].type.choices) == list(O.INTEGRATORS)
     conv = {p.name: p for p in main.commands['converge'].params}
     assert conv['samplers'].default == ','.join(SAMPLER_NAMES)
     assert list(conv['filter_'].type.choices) == list(FILTER_NAMES)
