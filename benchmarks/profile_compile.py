@@ -3,7 +3,7 @@
     XDG_CACHE_HOME=$(mktemp -d) python benchmarks/profile_compile.py scenes/gallery.xml
 
 Compiles the scene's kernels from an empty cache (the first render of a fresh machine) and prints
-the wall and CPU seconds, the time numba held its LLVM lock, and the self time (exclusive of nested
+the wall and CPU seconds, the time numba held its LLVM lock (in all, and per function), and the self time (exclusive of nested
 compiles) and number of specialisations of every function numba compiled (functions inlined at numba
 IR level are part of their caller's time).  CPU seconds are the figure to compare on a shared machine.
 """
@@ -24,6 +24,7 @@ class Prof(ev.Listener):
         self.self_time = defaultdict(float)
         self.count = defaultdict(int)
         self.llvm = 0.0
+        self.llvm_self = defaultdict(float)
         self._llvm_t = None
 
     def on_start(self, event):
@@ -42,7 +43,10 @@ class Prof(ev.Listener):
             if self.stack:
                 self.stack[-1][2] += dt
         elif event.kind == 'numba:llvm_lock' and self._llvm_t is not None:
-            self.llvm += time.perf_counter() - self._llvm_t
+            dt = time.perf_counter() - self._llvm_t
+            self.llvm += dt
+            if self.stack:
+                self.llvm_self[self.stack[-1][0]] += dt
             self._llvm_t = None
 
 
@@ -59,4 +63,4 @@ with Renderer(desc) as r:
 tot = sum(prof.self_time.values())
 print(f'sum of self times {tot:.1f} s over {len(prof.self_time)} functions')
 for name, t in sorted(prof.self_time.items(), key=lambda kv: -kv[1])[:40]:
-    print(f'{t:7.2f} s  x{prof.count[name]}  {name}')
+    print(f'{t:7.2f} s  x{prof.count[name]}  {name}  (llvm {prof.llvm_self[name]:.2f} s)')

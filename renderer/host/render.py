@@ -9,6 +9,7 @@ checkpoint - gives a bit-identical image.  Passes grow so that each takes about 
 from __future__ import annotations
 
 import time as _time
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 
 import numba
@@ -22,10 +23,11 @@ from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
 from ..kernel.filters import FILTER_NAMES
 from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
-                                 n_tiles, render_pass)
+                                 new_scratch, render_tiles)
+from ..kernel.tiles import n_tiles
 from ..kernel.records import PassParams
 from ..kernel.samplers import SAMPLER_NAMES
-from ..kernel.path import STRATEGIES, render_pass_path
+from ..kernel.path import STRATEGIES, new_path_scratch, render_tiles_path
 from .light_selection import path_lights
 
 
@@ -73,8 +75,10 @@ class Renderer:
         """`reuse`: a Renderer of a description with the same containers (the previous frame of a
         shot), whose prototype BVHs this one takes over (`build`'s reuse); it is closed."""
         t0 = _time.perf_counter()
-        if threads:
-            numba.set_num_threads(max(1, min(int(threads), numba.config.NUMBA_NUM_THREADS)))
+        self.threads = max(1, int(threads)) if threads else None
+        self._pool = None
+        self._scratch = []
+        self._path_scratch = []
         self.desc = desc
         self.built = build(desc, threads=threads, reuse=reuse.built if reuse is not None else None)
         if reuse is not None:
@@ -95,15 +99,47 @@ class Renderer:
         if o.integrator == 'path':
             if ray_record is not None:
                 raise RenderError('ray recording is available for the cook integrator only')
-            render_pass_path(self.built.data, self.path_lights(), self.built.handle, ctab,
-                             (o.width, o.height, s0, s1, o.spp),
-                             (SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
-                              STRATEGIES[o.strategy]), film.sum, counters)
+            lights = self.path_lights()
+            n = self.n_threads() if s1 > s0 else 1
+            while len(self._path_scratch) < n:
+                self._path_scratch.append(new_path_scratch())
+            work = np.zeros(1, np.int64)
+            data, handle, scratch = self.built.data, self.built.handle, self._path_scratch
+            frame = (o.width, o.height, s0, s1, o.spp)
+            opts = (SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
+                    STRATEGIES[o.strategy])
+            self._on_threads(n, lambda t: render_tiles_path(data, lights, handle, ctab, frame, opts, scratch[t], work,
+                                                            film.sum, counters))
             return
-        render_pass(self.built.data, self.built.handle, self.pass_params(o, s0, s1, ctab, use_lens, use_time),
-                    film.sum, counters, ray_record)
+        pp = self.pass_params(o, s0, s1, ctab, use_lens, use_time)
+        n = self.n_threads() if s1 > s0 else 1
+        while len(self._scratch) < n:
+            self._scratch.append(new_scratch(len(self.built.data.li_type)))
+        work = np.zeros(1, np.int64)
+        data, handle, scratch = self.built.data, self.built.handle, self._scratch
+        self._on_threads(n, lambda t: render_tiles(data, handle, pp, scratch[t], work, film.sum, counters, ray_record))
+
+    def n_threads(self) -> int:
+        """Render threads: the Renderer's `threads`, else numba's thread count (NUMBA_NUM_THREADS, or
+        what `numba.set_num_threads` chose)."""
+        return self.threads or numba.get_num_threads()
+
+    def _on_threads(self, n, call):
+        """call(t) for t < n, on n threads at once (the kernels release the GIL); the first error raises."""
+        if n == 1:
+            call(0)
+            return
+        if self._pool is None or self._pool._max_workers < n:
+            if self._pool is not None:
+                self._pool.shutdown()
+            self._pool = ThreadPoolExecutor(max_workers=n, thread_name_prefix='rtc-render')
+        for f in [self._pool.submit(call, t) for t in range(n)]:
+            f.result()
 
     def close(self):
+        if getattr(self, '_pool', None) is not None:
+            self._pool.shutdown()
+            self._pool = None
         if getattr(self, '_light_scene', None) is not None:
             self._light_scene.close()
             self._light_scene = None

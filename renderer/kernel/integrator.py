@@ -33,16 +33,18 @@ from .. import description as D
 from .cameras import camera_rays
 from .dimensions import bsdf_dim, choice_dim, light_dim, pixel_dim, time_dim
 from .filters import filter_offset
-from .jit import INLINE_JIT, JIT, PARALLEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
+from .jit import INLINE_JIT, KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .ray_record import record
-from .records import Continuation, Lanes, Path, PathState, Ray, SampleKey, ShadingPoint, ShadowQueue, Tile, Tracer
+from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue, Tile,
+                      Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
-from .trace import (PACKET, TFAR, hit_of, intersect1, intersect16, lane_hit, new_packet16, new_ray_buffer,
+from .tiles import TILE, n_tiles, next_tile
+from .trace import (PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1, intersect16, lane_hit,
                     occluded1, occluded16, set_ray16)
 from .vecmath import dot, normalize, offset_origin, onb, reflect
 
@@ -50,15 +52,7 @@ from .vecmath import dot, normalize, offset_origin, onb, reflect
 # first-hit ones traced in packets (also the ray record's kind for those)
 RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES, RAYS_SHADOW_PACKET = 0, 1, 2, 3, 4
 N_COUNTERS = 5
-TILE = 8
 SHADOW_EPS = 1e-5
-
-
-@nb.njit(**INLINE_JIT)
-def n_tiles(width, height):
-    """Tiles of TILE x TILE pixels covering a width x height image (one counter row, one ray record
-    row each)."""
-    return ((width + TILE - 1) // TILE) * ((height + TILE - 1) // TILE)
 
 
 @nb.njit(**INLINE_JIT)
@@ -66,26 +60,25 @@ def _n_lights(S):
     return S.li_type.shape[0] if S.li_type[0] >= 0 else 0
 
 
-@nb.njit(**INLINE_JIT)
-def new_tile_scratch(S, scene, tile):
-    """Per-thread scratch of `render_tile`: the camera `Packet`, the `Tracer` with its first-hit
-    `ShadowQueue`, and the camera stage's `Lanes` (structure of arrays, so that its loops over the
-    lanes vectorise); allocated by `render_pass` once per tile, the shading code allocates nothing."""
-    f, u = new_ray_buffer()
+def new_scratch(n_lights):
+    """One thread's scratch for `render_tiles`, allocated by the host (numpy) once per render: the camera
+    `Packet`, the single-ray buffer (f, u), matrix scratch, the tile's counters, the first-hit
+    `ShadowQueue` and the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
+    vectorise).  The kernels allocate nothing."""
+    f, u = alloc_ray_buffer()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
     # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
     # whole packet by `sobol_packet` with the Sobol' sampler
-    queue = ShadowQueue(new_packet16(), np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
-                        np.zeros((PACKET, 3)), np.zeros((2 * max(S.li_type.shape[0], 1), PACKET)))
-    tracer = Tracer(scene, f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64), queue,
-                    tile)
+    queue = ShadowQueue(alloc_packet16(), np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
+                        np.zeros((PACKET, 3)), np.zeros((2 * max(n_lights, 1), PACKET)))
     # origins, directions (3, PACKET); times; (pixel, index, x, y); radiance (PACKET, 3); the samples of
     # the pixel and lens pairs (4, PACKET); film positions (2, PACKET); pixel and index as uint32 and
     # the Sobol' packet's scratch
     lanes = Lanes(np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((4, PACKET), np.int64),
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
-    return new_packet16(), tracer, lanes
+    return Scratch(alloc_packet16(), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
+                   queue, lanes)
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -485,27 +478,27 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
     return Lr, Lg, Lb
 
 
-@nb.njit(**JIT)
-def _tile_pass(S, scene, pp, tile, accum, counters, rec):
-    """Tile `tile` of a pass: its scratch, `render_tile`, its counters.  (A function of its own, not
-    inlined into the parallel loop: numba's array analysis of the prange body fails on the records'
-    arrays.)"""
+@nb.njit(**KERNEL_JIT)
+def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
+    """Add samples [pp.s0, pp.s1) of the tiles this thread claims to `accum` (height, width, 3) float64:
+    the host runs it on every render thread at once, each with its own `Scratch`; `work` (int64 [1])
+    is the pass's shared tile counter (`tiles.claim`: the next unclaimed tile, atomically), so threads
+    share the tiles dynamically.  pp: `PassParams`; counters: int64 (n_tiles, N_COUNTERS), one row per
+    tile (no shared writes).  rec: None, or a `ray_record.RayRecord` that receives every ray traced.
+    Which thread renders a tile changes nothing in it: images are bit-identical for any thread count."""
     ntx = (pp.width + TILE - 1) // TILE
-    packet, tr, lanes = new_tile_scratch(S, scene, tile)
-    x0 = (tile % ntx) * TILE
-    y0 = (tile // ntx) * TILE
-    render_tile(S, tr, pp, Tile(tile, x0, y0, min(x0 + TILE, pp.width), min(y0 + TILE, pp.height)), packet, lanes,
-                accum, rec)
-    for k in range(N_COUNTERS):
-        counters[tile, k] += tr.counts[k]
-
-
-@nb.njit(**PARALLEL_JIT)
-def render_pass(S, scene, pp, accum, counters, rec=None):
-    """Add samples [pp.s0, pp.s1) of every pixel to `accum` (height, width, 3) float64.
-    pp: `PassParams`; counters: int64 (n_tiles, N_COUNTERS), one row per tile (no shared writes).
-    rec: None, or a `ray_record.RayRecord` that receives every ray traced."""
     ntiles = n_tiles(pp.width, pp.height)
-    stride = 7919 if ntiles % 7919 != 0 else 1
-    for ti in nb.prange(ntiles):
-        _tile_pass(S, scene, pp, (ti * stride) % ntiles, accum, counters, rec)
+    counts = scratch.counts
+    while True:
+        tile = next_tile(work, ntiles)
+        if tile < 0:
+            break
+        for k in range(N_COUNTERS):
+            counts[k] = 0
+        x0 = (tile % ntx) * TILE
+        y0 = (tile // ntx) * TILE
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile)
+        render_tile(S, tr, pp, Tile(tile, x0, y0, min(x0 + TILE, pp.width), min(y0 + TILE, pp.height)),
+                    scratch.packet, scratch.lanes, accum, rec)
+        for k in range(N_COUNTERS):
+            counters[tile, k] += counts[k]

@@ -32,15 +32,17 @@ from .bsdf import BLACK, course_bsdf, evaluate, is_delta, preview_bsdf, sample
 from .cameras import camera_rays
 from .dimensions import DIM_PIXEL, DIM_TIME, P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .filters import filter_offset
-from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, TILE, _shading_point
+from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
 from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
-from .jit import SHADING_INLINE_JIT, SHADING_JIT
+from .jit import KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
 from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH)
 from .records import Ray, Tracer
-from .trace import PACKET, TFAR, intersect1, intersect16, lane_hit, new_packet16, new_ray_buffer, occluded1, set_ray16
+from .tiles import TILE, n_tiles, next_tile
+from .trace import (PACKET, TFAR, alloc_packet16, alloc_ray_buffer, intersect1, intersect16, lane_hit, occluded1,
+                    set_ray16)
 from .vecmath import dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -192,14 +194,17 @@ def trace_path(S, L, scene, ray, smp, opts, ws):
     return Lo
 
 
-@nb.njit(inline='always')
 def new_path_scratch():
-    """Per-tile scratch of `path_tile`: the camera packet and the per-lane camera-stage arrays."""
-    packet = new_packet16()
+    """One render thread's scratch for `render_tiles_path`, allocated by the host (numpy): the camera
+    packet, the per-lane camera-stage arrays, a tile's counters and two single-ray buffers (the scene's
+    and the light shapes')."""
+    packet = alloc_packet16()
     lanes = (np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((4, PACKET), np.int64),
              np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
              np.zeros((6, PACKET), np.uint32))
-    return packet, lanes
+    f, u = alloc_ray_buffer()
+    lf, lu = alloc_ray_buffer()
+    return (f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64), packet, lanes, lf, lu)
 
 
 @nb.njit(**SHADING_JIT)
@@ -283,25 +288,25 @@ def path_tile(S, L, scene, cam, box, frame, opts, ws, accum):
                 counts[BAD_SAMPLES] += 1
 
 
-@nb.njit(parallel=True, cache=True, nogil=True)
-def render_pass_path(S, L, scene, cam, frame, opts, accum, counters):
-    """Add samples [s0, s1) of every pixel to accum (height, width, 3) float64 with the path integrator.
-    frame = (width, height, s0, s1, spp); opts = (sampler, filter, seed, max_depth, use_lens, use_time,
-    strategy); counters int64 (n_tiles, N_COUNTERS), one row per tile."""
+@nb.njit(**KERNEL_JIT)
+def render_tiles_path(S, L, scene, cam, frame, opts, ws, work, accum, counters):
+    """Add samples [s0, s1) of the tiles this thread claims (`tiles.next_tile` on the pass's shared
+    counter `work`) to accum (height, width, 3) float64 with the path integrator; the host runs it on
+    every render thread, each with its own scratch ws (`new_path_scratch`).  frame = (width, height,
+    s0, s1, spp); opts = (sampler, filter, seed, max_depth, use_lens, use_time, strategy); counters int64
+    (n_tiles, N_COUNTERS), one row per tile."""
     width, height = frame[0], frame[1]
     ntx = (width + TILE - 1) // TILE
-    nty = (height + TILE - 1) // TILE
-    ntiles = ntx * nty
-    stride = 7919 if ntiles % 7919 != 0 else 1
-    for ti in nb.prange(ntiles):
-        tile = (ti * stride) % ntiles
-        f, u = new_ray_buffer()
-        lf, lu = new_ray_buffer()
-        counts = np.zeros(N_COUNTERS, np.int64)
-        packet, lanes = new_path_scratch()
+    ntiles = n_tiles(width, height)
+    counts = ws[4]
+    while True:
+        tile = next_tile(work, ntiles)
+        if tile < 0:
+            break
+        for k in range(N_COUNTERS):
+            counts[k] = 0
         x0 = (tile % ntx) * TILE
         y0 = (tile // ntx) * TILE
-        path_tile(S, L, scene, cam, (x0, y0, min(x0 + TILE, width), min(y0 + TILE, height)), frame, opts,
-                  (f, u, np.empty((3, 4)), np.empty(12, np.float32), counts, packet, lanes, lf, lu), accum)
+        path_tile(S, L, scene, cam, (x0, y0, min(x0 + TILE, width), min(y0 + TILE, height)), frame, opts, ws, accum)
         for k in range(N_COUNTERS):
             counters[tile, k] += counts[k]

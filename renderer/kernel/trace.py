@@ -89,6 +89,24 @@ _XFM_ROW_MAJOR = 0x9134
 
 
 
+# ----------------------------------------------------------------------------- host-side allocation
+def alloc_ray_buffer():
+    """`new_ray_buffer` for the host (numpy): a render thread's scratch is allocated before the pass."""
+    buf = np.zeros(RAYHIT_FLOATS + 4, np.float32)
+    start = ((16 - buf.ctypes.data % 16) % 16) // 4
+    buf = buf[start:start + RAYHIT_FLOATS]
+    return buf, buf.view(np.uint32)
+
+
+def alloc_packet16():
+    """`new_packet16` for the host (numpy): a `Packet` whose ray block is 64-B aligned."""
+    raw = np.zeros(PACKET_FLOATS + PACKET + 16, np.float32)
+    start = ((64 - raw.ctypes.data % 64) % 64) // 4
+    f = raw[start:start + PACKET_FLOATS]
+    valid = raw[start + PACKET_FLOATS:start + PACKET_FLOATS + PACKET].view(np.int32)
+    return Packet(valid, f, f.view(np.uint32))
+
+
 # ----------------------------------------------------------------------------- single rays
 @numba.njit(**INLINE_JIT)
 def new_ray_buffer():
