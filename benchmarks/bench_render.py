@@ -46,7 +46,8 @@ from rtc.renderer.host import film as film_mod  # noqa: E402
 from embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  (benchmarks/)
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
-                                            N_COUNTERS, n_tiles, render_pass)
+                                            N_COUNTERS)
+from rtc.renderer.kernel.tiles import n_tiles  # noqa: E402
 from rtc.renderer.kernel.ray_record import R_DX, R_OX, R_TFAR, R_TIME, R_TNEAR, new_ray_record  # noqa: E402
 from rtc.renderer.options import resolve  # noqa: E402
 
@@ -72,8 +73,7 @@ def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     o = resolve(opts, r.desc.settings)
     ntiles = n_tiles(o.width, o.height)
     rec = new_ray_record(ntiles, cap)
-    render_pass(r.built.data, r.built.handle, r.pass_params(o, 0, spp), np.zeros((o.height, o.width, 3)),
-                np.zeros((ntiles, N_COUNTERS), np.int64), rec)
+    r.run_pass(o, r.setup(o), 0, spp, np.zeros((o.height, o.width, 3)), np.zeros((ntiles, N_COUNTERS), np.int64), rec)
     rays, kind, count = rec
     if np.any(count > cap):
         print(f'  note: {int((count - cap).clip(0).sum())} rays beyond the record capacity were not recorded')

@@ -57,7 +57,7 @@ stage, _ = compile_to_stage(sys.argv[1])
 desc = read_stage(stage)
 with Renderer(desc) as r:
     w0, c0 = time.perf_counter(), time.process_time()
-    res = r.render(RenderOptions(width=32, height=24, spp=1))
+    res = r.render(RenderOptions(width=32, height=24, spp=1, integrator=(sys.argv[2] if len(sys.argv) > 2 else None)))
     print(f'kernel {res.stats.kernel_seconds:.1f} s wall; {time.process_time() - c0:.1f} s cpu; '
           f'llvm (lock held) {prof.llvm:.1f} s')
 tot = sum(prof.self_time.values())

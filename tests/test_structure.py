@@ -26,8 +26,6 @@ FUNCTION_EXCEPTIONS = {
 }
 # (path, function) -> reason (numba functions over MAX_KERNEL_PARAMS)
 KERNEL_EXCEPTIONS = {
-    ('renderer/kernel/path.py', 'path_tile'): 'the path integrator of this round still passes frame/opts tuples, '
-                                             'not kernel/records.py PassParams (port pending)',
     ('renderer/kernel/bsdf.py', 'course_bsdf'): 'one argument per course shader parameter (kd, ks, exponent, mirror, '
                                                'ior, attenuation...): a material record is pending',
 }
@@ -66,7 +64,7 @@ def test_the_scan_sees_the_code():
     """The scan reads the real tree: the kernels, their records and their decorators."""
     assert 'renderer/kernel/integrator.py' in SOURCES and 'rtc/cli.py' in SOURCES
     kernels = {(rel, name) for rel, name, _, _, numba_fn in FUNCTIONS if numba_fn}
-    assert ('renderer/kernel/integrator.py', 'render_pass') in kernels
+    assert ('renderer/kernel/integrator.py', 'render_tiles') in kernels
     assert ('renderer/kernel/samplers.py', 'sample_2d') in kernels
     assert len(kernels) > 100
 
@@ -89,7 +87,7 @@ def test_kernel_functions_take_few_parameters():
     assert set(KERNEL_EXCEPTIONS) - set(wide) == set(), 'exceptions no longer needed'
 
 
-@pytest.mark.parametrize('source', ['integrator.py', 'trace.py', 'shapes.py'])
+@pytest.mark.parametrize('source', ['integrator.py', 'path.py', 'camera_stage.py', 'trace.py', 'shapes.py'])
 def test_no_tuple_is_read_by_number_in_the_integrator_records(source):
     """Records are read by field name: no `queue[6]`-style subscripts of the shadow queue, the lanes,
     the packet or the sample key remain."""

@@ -11,6 +11,7 @@ from __future__ import annotations
 import time as _time
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -19,6 +20,7 @@ from .. import description as D
 from ..errors import RenderError
 from ..options import RenderOptions, resolve
 from .build import build
+from .features import general_kernels, scene_features
 from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
 from ..kernel.filters import FILTER_NAMES
@@ -26,8 +28,9 @@ from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECO
                                  new_scratch, render_tiles)
 from ..kernel.tiles import n_tiles
 from ..kernel.records import PassParams
+from ..kernel.specialize import specialize
 from ..kernel.samplers import SAMPLER_NAMES
-from ..kernel.path import STRATEGIES, new_path_scratch, render_tiles_path
+from ..kernel.path import STRATEGIES, render_tiles_path
 from .light_selection import path_lights
 
 
@@ -50,6 +53,15 @@ class RenderStats:
     @property
     def rays(self) -> int:
         return self.rays_camera + self.rays_shadow + self.rays_secondary
+
+
+class PassSetup(NamedTuple):
+    """What the passes of one render share (`Renderer.setup`)."""
+    entry: object                     # the integrator's kernel entry point, specialised for `features`
+    features: object                  # kernel.features.Features, or None (the general kernel)
+    ctab: np.ndarray                  # the camera table
+    use_lens: bool
+    use_time: bool
 
 
 @dataclass
@@ -78,7 +90,6 @@ class Renderer:
         self.threads = max(1, int(threads)) if threads else None
         self._pool = None
         self._scratch = []
-        self._path_scratch = []
         self.desc = desc
         self.built = build(desc, threads=threads, reuse=reuse.built if reuse is not None else None)
         if reuse is not None:
@@ -94,30 +105,35 @@ class Renderer:
                                                           self.built.device)
         return self._lights
 
-    def _pass(self, o, ctab, use_lens, use_time, s0, s1, film, counters, ray_record):
-        """Add samples [s0, s1) of every pixel to the film's sum with the integrator of options `o`."""
+    def setup(self, o: RenderOptions) -> PassSetup:
+        """What every pass of a render with resolved options `o` shares: its kernel entry point
+        (specialised for what the render needs, `kernel/specialize.py`; compiled on its first call or
+        loaded from the kernel cache), the camera table and whether the lens and the shutter are
+        sampled."""
+        ctab, use_lens, use_time = self.camera(o)
+        features = None if general_kernels() else scene_features(
+            self.built.data, o, ctab, use_time, self.path_lights() if o.integrator == 'path' else None)
+        entry = specialize(render_tiles_path if o.integrator == 'path' else render_tiles, features)
+        return PassSetup(entry, features, ctab, use_lens, use_time)
+
+    def run_pass(self, o: RenderOptions, setup: PassSetup, s0: int, s1: int, sums: np.ndarray, counters: np.ndarray,
+                 ray_record=None) -> None:
+        """Add samples [s0, s1) of every pixel to `sums` (height, width, 3) float64 with the integrator of
+        resolved options `o`, on every render thread; `counters` int64 (n_tiles, N_COUNTERS); `ray_record`:
+        None, or a `ray_record.RayRecord` that receives every ray (cook only: benchmarks)."""
+        pp = self.pass_params(o, s0, s1, setup.ctab, setup.use_lens, setup.use_time)
+        n = self.n_threads() if s1 > s0 else 1
+        while len(self._scratch) < n:
+            self._scratch.append(new_scratch(len(self.built.data.li_type)))
+        work = np.zeros(1, np.int64)             # the pass's tile counter (tiles.next_tile)
+        data, handle, scratch, entry = self.built.data, self.built.handle, self._scratch, setup.entry
         if o.integrator == 'path':
             if ray_record is not None:
                 raise RenderError('ray recording is available for the cook integrator only')
             lights = self.path_lights()
-            n = self.n_threads() if s1 > s0 else 1
-            while len(self._path_scratch) < n:
-                self._path_scratch.append(new_path_scratch())
-            work = np.zeros(1, np.int64)
-            data, handle, scratch = self.built.data, self.built.handle, self._path_scratch
-            frame = (o.width, o.height, s0, s1, o.spp)
-            opts = (SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter], o.seed, o.max_depth, use_lens, use_time,
-                    STRATEGIES[o.strategy])
-            self._on_threads(n, lambda t: render_tiles_path(data, lights, handle, ctab, frame, opts, scratch[t], work,
-                                                            film.sum, counters))
-            return
-        pp = self.pass_params(o, s0, s1, ctab, use_lens, use_time)
-        n = self.n_threads() if s1 > s0 else 1
-        while len(self._scratch) < n:
-            self._scratch.append(new_scratch(len(self.built.data.li_type)))
-        work = np.zeros(1, np.int64)
-        data, handle, scratch = self.built.data, self.built.handle, self._scratch
-        self._on_threads(n, lambda t: render_tiles(data, handle, pp, scratch[t], work, film.sum, counters, ray_record))
+            self._on_threads(n, lambda t: entry(data, lights, handle, pp, scratch[t], work, sums, counters))
+        else:
+            self._on_threads(n, lambda t: entry(data, handle, pp, scratch[t], work, sums, counters, ray_record))
 
     def n_threads(self) -> int:
         """Render threads: the Renderer's `threads`, else numba's thread count (NUMBA_NUM_THREADS, or
@@ -167,7 +183,7 @@ class Renderer:
         if ctab is None:
             ctab, use_lens, use_time = self.camera(o)
         return PassParams(ctab, o.width, o.height, s0, s1, o.spp, SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter],
-                          o.seed, o.max_depth, bool(use_lens), bool(use_time))
+                          o.seed, o.max_depth, bool(use_lens), bool(use_time), STRATEGIES[o.strategy])
 
     def render(self, options: RenderOptions | None = None, *, film: Film | None = None, should_stop=lambda: False,
                on_pass=None, ray_record=None) -> RenderResult:
@@ -177,7 +193,7 @@ class Renderer:
         `ray_record`: None, or `ray_record.new_ray_record(n_tiles, cap)` to store the rays traced
         (benchmarks)."""
         o = resolve(options if options is not None else self.desc.options, self.desc.settings)
-        ctab, use_lens, use_time = self.camera(o)
+        setup = self.setup(o)
         if film is None:
             film = Film(o.width, o.height)
         elif (film.width, film.height) != (o.width, o.height):
@@ -189,7 +205,7 @@ class Renderer:
         # an empty pass (no samples) loads the cached kernel - or compiles it on the very first run -
         # so that the render's time and ray rate measure rendering only
         t0 = _time.perf_counter()
-        self._pass(o, ctab, use_lens, use_time, s, s, film, counters, ray_record)
+        self.run_pass(o, setup, s, s, film.sum, counters, ray_record)
         stats.kernel_seconds = _time.perf_counter() - t0
         t_start = _time.perf_counter()
         step = 1
@@ -199,7 +215,7 @@ class Renderer:
                 break
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
-            self._pass(o, ctab, use_lens, use_time, s, s1, film, counters, ray_record)
+            self.run_pass(o, setup, s, s1, film.sum, counters, ray_record)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))

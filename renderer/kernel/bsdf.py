@@ -29,6 +29,8 @@ from collections import namedtuple
 import numba as nb
 
 from .. import description as D
+from .features import (B_BLINN_PHONG, B_BLINN_PHONG_MIRRORED, B_COOL_TO_WARM, B_DIELECTRIC, B_GLAZE, B_LAMBERTIAN,
+                       B_MIRROR, B_MIRRORING, B_PHONG, B_GGX, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS)
 from .jit import SHADING_INLINE_JIT as _JIT
 
 Bsdf = namedtuple('Bsdf', ['kd', 'coupled', 'cool', 'gooch', 'f0', 'f90', 'alpha', 'cc', 'cc_alpha',
@@ -184,12 +186,12 @@ def evaluate(b, wo, wi):
     pdf = 0.0
     if p[L_DIFFUSE] > 0.0:
         pdf += p[L_DIFFUSE] * ci / math.pi
-        if b.gooch:
+        if F_MODELS & B_COOL_TO_WARM and b.gooch:
             t = 0.25 * (1.0 + ci) * (1.0 + wo[2])
             fr = (b.cool[0] + t * (b.kd[0] - b.cool[0])) / math.pi
             fg = (b.cool[1] + t * (b.kd[1] - b.cool[1])) / math.pi
             fb = (b.cool[2] + t * (b.kd[2] - b.cool[2])) / math.pi
-        elif b.coupled:
+        elif F_MODELS & B_PREVIEW_SURFACE and b.coupled:
             fo = schlick3(b.f0, b.f90, wo[2])
             fi = schlick3(b.f0, b.f90, ci)
             fr = b.kd[0] * (1.0 - fo[0]) * (1.0 - fi[0]) / math.pi
@@ -199,21 +201,21 @@ def evaluate(b, wo, wi):
             fr = b.kd[0] / math.pi
             fg = b.kd[1] / math.pi
             fb = b.kd[2] / math.pi
-    if b.alpha > 0.0:
+    if F_MODELS & B_GGX and b.alpha > 0.0:
         F = schlick3(b.f0, b.f90, vh)
         s = ggx_spec(wo, wi, h, b.alpha)
         fr += F[0] * s
         fg += F[1] * s
         fb += F[2] * s
         pdf += p[L_GGX] * ggx_pdf(wo, h, b.alpha)
-    if b.cc > 0.0:
+    if F_CLEARCOAT and b.cc > 0.0:
         layer = (1.0 - b.cc * schlick(CC_F0, 1.0, wo[2])) * (1.0 - b.cc * schlick(CC_F0, 1.0, ci))
         c = b.cc * schlick(CC_F0, 1.0, vh) * ggx_spec(wo, wi, h, b.cc_alpha)
         fr = fr * layer + c
         fg = fg * layer + c
         fb = fb * layer + c
         pdf += p[L_CLEARCOAT] * ggx_pdf(wo, h, b.cc_alpha)
-    if b.exp >= 0.0 and h[2] > 0.0:
+    if F_MODELS & B_PHONG and b.exp >= 0.0 and h[2] > 0.0:
         dh = (b.exp + 1.0) / (2.0 * math.pi) * h[2] ** b.exp
         s = dh / (4.0 * vh * max(ci, wo[2]))
         fr += b.ks[0] * s
@@ -248,23 +250,25 @@ def sample(b, wo, ul, u1, u2):
     k, ur = _pick(p, ul)
     if k < 0:
         return dead
-    if k == L_DIELECTRIC:
+    if F_MODELS & B_DIELECTRIC and k == L_DIELECTRIC:
         return _sample_dielectric(b, wo, ur)
-    if k == L_MIRROR:
+    if F_MODELS & B_MIRRORING and k == L_MIRROR:
         q = 1.0 / p[L_MIRROR]
         return (-wo[0], -wo[1], wo[2]), (b.mirror[0] * q, b.mirror[1] * q, b.mirror[2] * q), 0.0, True
     if k == L_DIFFUSE:
         r = math.sqrt(u1)
         phi = 2.0 * math.pi * u2
         wi = (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u1)))
-    elif k == L_GGX or k == L_CLEARCOAT:
+    elif F_MODELS & B_GGX and (k == L_GGX or k == L_CLEARCOAT):
         h = sample_vndf(wo, b.alpha if k == L_GGX else b.cc_alpha, u1, u2)
         wi = _reflect(wo, h)
-    else:
+    elif F_MODELS & B_PHONG:
         ct = u1 ** (1.0 / (b.exp + 1.0))
         st = math.sqrt(max(0.0, 1.0 - ct * ct))
         phi = 2.0 * math.pi * u2
         wi = _reflect(wo, (st * math.cos(phi), st * math.sin(phi), ct))
+    else:
+        return dead
     if wi[2] <= 0.0:
         return dead
     f, pdf = evaluate(b, wo, wi)
@@ -319,19 +323,19 @@ def course_bsdf(model, kd, ks, exp, m, rough, ior, front, cool):
     e = -1.0
     eta = 0.0
     gooch = False
-    if model == D.LAMBERTIAN:
+    if F_MODELS & B_LAMBERTIAN and model == D.LAMBERTIAN:
         ks = BLACK
-    elif model == D.BLINN_PHONG:
+    elif F_MODELS & B_BLINN_PHONG and model == D.BLINN_PHONG:
         e = exp
-    elif model == D.MIRROR:
+    elif F_MODELS & B_MIRROR and model == D.MIRROR:
         mirror = ks if (ks[0] > 0.0 or ks[1] > 0.0 or ks[2] > 0.0) else (1.0, 1.0, 1.0)
         kd = BLACK
         ks = BLACK
-    elif model == D.GLAZE:
+    elif F_MODELS & B_GLAZE and model == D.GLAZE:
         kd = _scaled(kd, 1.0 - m)
         ks = BLACK
         mirror = (m, m, m)
-    elif model == D.BLINN_PHONG_MIRRORED:
+    elif F_MODELS & B_BLINN_PHONG_MIRRORED and model == D.BLINN_PHONG_MIRRORED:
         kd = _scaled(kd, 1.0 - m)
         ks = _scaled(ks, 1.0 - m)
         e = exp
@@ -339,7 +343,7 @@ def course_bsdf(model, kd, ks, exp, m, rough, ior, front, cool):
             alpha = max(rough * rough, MIN_ALPHA)
         else:
             mirror = (m, m, m)
-    elif model == D.DIELECTRIC:
+    elif F_MODELS & B_DIELECTRIC and model == D.DIELECTRIC:
         kd = BLACK
         ks = BLACK
         eta = ior if front else 1.0 / ior

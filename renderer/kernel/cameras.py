@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
+from .features import F_LENS, F_ORTHO, F_TIME
 from .jit import INLINE_JIT, JIT
 from .tables import (C_FAR, C_FOCUS, C_HALF_H, C_HALF_W, C_LENS, C_M, C_M1, C_MOVING, C_NEAR,  # noqa: F401
                      C_OFF_X, C_OFF_Y, C_ORTHO, CAM_COLS, CAMERA)
@@ -120,7 +121,14 @@ def generate_ray(cam, fx, fy, lens_u, lens_v, time):
 
 @nb.njit(**INLINE_JIT)
 def _m(cam, i, a):
-    return (1.0 - a) * cam[C_M + i] + a * cam[C_M1 + i]
+    return _mix(a, cam[C_M + i], cam[C_M1 + i])
+
+
+@nb.njit(**INLINE_JIT)
+def _mix(a, x0, x1):
+    """(1 - a) x0 + a x1: a matrix entry at shutter time a.  (The entry's index stays with the caller: an
+    integer constant passed to a compiled function makes numba compile it once per constant.)"""
+    return (1.0 - a) * x0 + a * x1
 
 
 @nb.njit(**INLINE_JIT)
@@ -142,12 +150,16 @@ def _concentric_disk_select(u, v):
 def _to_world(cam, a, o0, o1, o2, d0, d1, d2):
     """`generate_ray`'s camera-to-world step with the matrix entries read from the table once per
     packet (locals, so that stores to the output arrays do not force reloads)."""
-    wo = (_m(cam, 0, a) * o0 + _m(cam, 1, a) * o1 + _m(cam, 2, a) * o2 + _m(cam, 3, a),
-          _m(cam, 4, a) * o0 + _m(cam, 5, a) * o1 + _m(cam, 6, a) * o2 + _m(cam, 7, a),
-          _m(cam, 8, a) * o0 + _m(cam, 9, a) * o1 + _m(cam, 10, a) * o2 + _m(cam, 11, a))
-    wd = normalize((_m(cam, 0, a) * d0 + _m(cam, 1, a) * d1 + _m(cam, 2, a) * d2,
-                    _m(cam, 4, a) * d0 + _m(cam, 5, a) * d1 + _m(cam, 6, a) * d2,
-                    _m(cam, 8, a) * d0 + _m(cam, 9, a) * d1 + _m(cam, 10, a) * d2))
+    m = (_mix(a, cam[C_M], cam[C_M1]), _mix(a, cam[C_M + 1], cam[C_M1 + 1]), _mix(a, cam[C_M + 2], cam[C_M1 + 2]),
+         _mix(a, cam[C_M + 3], cam[C_M1 + 3]), _mix(a, cam[C_M + 4], cam[C_M1 + 4]),
+         _mix(a, cam[C_M + 5], cam[C_M1 + 5]), _mix(a, cam[C_M + 6], cam[C_M1 + 6]),
+         _mix(a, cam[C_M + 7], cam[C_M1 + 7]), _mix(a, cam[C_M + 8], cam[C_M1 + 8]),
+         _mix(a, cam[C_M + 9], cam[C_M1 + 9]), _mix(a, cam[C_M + 10], cam[C_M1 + 10]),
+         _mix(a, cam[C_M + 11], cam[C_M1 + 11]))
+    wo = (m[0] * o0 + m[1] * o1 + m[2] * o2 + m[3], m[4] * o0 + m[5] * o1 + m[6] * o2 + m[7],
+          m[8] * o0 + m[9] * o1 + m[10] * o2 + m[11])
+    wd = normalize((m[0] * d0 + m[1] * d1 + m[2] * d2, m[4] * d0 + m[5] * d1 + m[6] * d2,
+                    m[8] * d0 + m[9] * d1 + m[10] * d2))
     return wo, wd
 
 
@@ -166,17 +178,17 @@ def camera_rays(cam, n, fx, fy, lens, time, o, d):
     hh = cam[C_HALF_H]
     offx = cam[C_OFF_X]
     offy = cam[C_OFF_Y]
-    moving = cam[C_MOVING] != 0.0
+    moving = F_TIME and cam[C_MOVING] != 0.0
     lens = cam[C_LENS]
     fd = cam[C_FOCUS]
-    if cam[C_ORTHO] != 0.0:
+    if F_ORTHO and cam[C_ORTHO] != 0.0:
         for j in range(n):
             a = time[j] if moving else 0.0
             wo, wd = _to_world(c, a, (2.0 * fx[j] - 1.0) * hw + offx, (1.0 - 2.0 * fy[j]) * hh + offy, 0.0,
                                0.0, 0.0, -1.0)
             o[0, j], o[1, j], o[2, j] = wo
             d[0, j], d[1, j], d[2, j] = wd
-    elif lens > 0.0:
+    elif F_LENS and lens > 0.0:
         for j in range(n):
             sx = (2.0 * fx[j] - 1.0) * hw + offx
             sy = (1.0 - 2.0 * fy[j]) * hh + offy

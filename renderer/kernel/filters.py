@@ -23,6 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
+from .features import B_GAUSSIAN, B_TENT, F_FILTERS
 from .jit import JIT
 
 BOX, TENT, GAUSSIAN = 0, 1, 2
@@ -102,9 +103,9 @@ def sample_tent_1d(u):
 def filter_offset(filter_id, u, v):
     """Pixel-space offset (dx, dy) from the pixel centre for the sample (u, v) in [0, 1)^2,
     distributed like filter ``filter_id`` (BOX, TENT, GAUSSIAN); every sample has weight 1."""
-    if filter_id == TENT:
+    if F_FILTERS & B_TENT and (F_FILTERS == B_TENT or filter_id == TENT):
         return sample_tent_1d(u), sample_tent_1d(v)
-    if filter_id == GAUSSIAN:
+    if F_FILTERS & B_GAUSSIAN and (F_FILTERS == B_GAUSSIAN or filter_id == GAUSSIAN):
         return sample_gaussian_1d(u), sample_gaussian_1d(v)
     return u - 0.5, v - 0.5
 

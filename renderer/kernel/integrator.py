@@ -30,17 +30,18 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
-from .cameras import camera_rays
-from .dimensions import bsdf_dim, choice_dim, light_dim, pixel_dim, time_dim
-from .filters import filter_offset
-from .jit import INLINE_JIT, KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT
+from .camera_stage import camera_rays_into, camera_samples, next_samples
+from .dimensions import bsdf_dim, choice_dim, light_dim
+from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_EMISSION, F_MODELS,
+                       F_OPACITY, F_SAMPLERS)
+from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .ray_record import record
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue, Tile,
                       Tracer)
-from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
+from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .tiles import TILE, n_tiles, next_tile
@@ -66,6 +67,7 @@ def new_scratch(n_lights):
     `ShadowQueue` and the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
     vectorise).  The kernels allocate nothing."""
     f, u = alloc_ray_buffer()
+    lf, lu = alloc_ray_buffer()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
     # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
     # whole packet by `sobol_packet` with the Sobol' sampler
@@ -78,74 +80,21 @@ def new_scratch(n_lights):
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
     return Scratch(alloc_packet16(), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
-                   queue, lanes)
+                   queue, lanes, lf, lu)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
-def _next_samples(pp, tile, lanes, first, cursor):
-    """Fill the lane ids of the packet's samples [first, first + n) of the tile, pixel-major, from
-    the cursor (sample index, x, y) of the next one (counters, not three integer divisions per
-    sample); returns (n, the new cursor)."""
-    total = (tile.x1 - tile.x0) * (tile.y1 - tile.y0) * (pp.s1 - pp.s0)
-    n = min(PACKET, total - first)
-    nidx, nx, ny = cursor
-    for j in range(n):
-        pixel = ny * pp.width + nx
-        lanes.ids[0, j] = pixel
-        lanes.ids[1, j] = nidx
-        lanes.ids[2, j] = nx
-        lanes.ids[3, j] = ny
-        lanes.key32[0, j] = pixel
-        lanes.key32[1, j] = nidx
-        nidx += 1
-        if nidx == pp.s1:
-            nidx = pp.s0
-            nx += 1
-            if nx == tile.x1:
-                nx = tile.x0
-                ny += 1
-    return n, (nidx, nx, ny)
+@nb.njit(**STAGE_JIT)
+def _first_hit_light_samples(S, pp, lanes, n, light_u):
+    """With the Sobol' sampler, the first hit's light samples of the packet's lanes, drawn at once
+    (vectorised) into the queue's `light_u` (pairs light_dim(0, k): rows 2k, 2k + 1)."""
+    n_lights = _n_lights(S)
+    for k in range(n_lights):
+        if light_is_area(S, k):
+            sobol_packet(pp.seed, light_dim(0, k, n_lights), lanes.key32[0], lanes.key32[1], n, np.int64(2), lanes.work,
+                         light_u[2 * k:2 * k + 2])
 
 
-@nb.njit(**SHADING_INLINE_JIT)
-def _camera_samples(S, pp, lanes, n, light_u):
-    """The pixel, lens and time samples of the packet's lanes and (Sobol': drawn for the whole packet,
-    vectorised) the first hit's light samples; then the film positions."""
-    ids = lanes.ids
-    lane_t = lanes.time[0]
-    n_pl = 4 if pp.use_lens else 2
-    if pp.sampler == SOBOL:
-        sobol_packet(pp.seed, pixel_dim(), lanes.key32[0], lanes.key32[1], n, n_pl, lanes.work, lanes.u)
-        if pp.use_time:
-            sobol_packet(pp.seed, time_dim(), lanes.key32[0], lanes.key32[1], n, np.int64(1), lanes.work, lanes.time)
-        n_lights = _n_lights(S)
-        for k in range(n_lights):
-            if light_is_area(S, k):
-                sobol_packet(pp.seed, light_dim(0, k, n_lights), lanes.key32[0], lanes.key32[1], n, np.int64(2), lanes.work,
-                             light_u[2 * k:2 * k + 2])
-    else:
-        for j in range(n):
-            if pp.use_lens:
-                a, b, lu, lv = sample_pixel_lens(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp)
-                lanes.u[2, j] = lu
-                lanes.u[3, j] = lv
-            else:
-                a, b = sample_2d(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp, pixel_dim())
-            lanes.u[0, j] = a
-            lanes.u[1, j] = b
-    film = lanes.film
-    for j in range(n):
-        if pp.sampler != SOBOL:
-            lane_t[j] = sample_1d(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp, time_dim()) if pp.use_time else 0.0
-        elif not pp.use_time:
-            lane_t[j] = 0.0
-        film[0, j], film[1, j] = filter_offset(pp.filt, lanes.u[0, j], lanes.u[1, j])
-    for j in range(n):                  # vectorised: film positions
-        film[0, j] = (ids[2, j] + 0.5 + film[0, j]) / pp.width
-        film[1, j] = (ids[3, j] + 0.5 + film[1, j]) / pp.height
-
-
-@nb.njit(**SHADING_JIT)
+@nb.njit(**STAGE_JIT)
 def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
     """Add samples [pp.s0, pp.s1) of the pixels of `tile` to `accum`.
 
@@ -167,19 +116,17 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
     total = (tile.x1 - tile.x0) * (tile.y1 - tile.y0) * (pp.s1 - pp.s0)
     cursor = (pp.s0, tile.x0, tile.y0)
     for first in range(0, total, PACKET):
-        for j in range(PACKET):
-            packet.valid[j] = 0
         # the camera stage as loops over the lanes: which samples, their random numbers (Sobol':
         # `sobol_packet`, vectorised), filter offsets, then the rays (`camera_rays`, vectorised)
-        n, cursor = _next_samples(pp, tile, lanes, first, cursor)
-        _camera_samples(S, pp, lanes, n, tr.queue.light_u)
-        camera_rays(cam, n, lanes.film[0], lanes.film[1], (lanes.u[2], lanes.u[3]), lane_t, lo, ld)
+        n, cursor = next_samples(pp, tile, lanes, first, cursor)
+        camera_samples(pp, lanes, n)
+        if F_SAMPLERS & B_SOBOL and (F_SAMPLERS == B_SOBOL or pp.sampler == SOBOL):
+            _first_hit_light_samples(S, pp, lanes, n, tr.queue.light_u)
+        camera_rays_into(pp, lanes, packet, n)
         for j in range(n):
-            o = (lo[0, j], lo[1, j], lo[2, j])
-            d = (ld[0, j], ld[1, j], ld[2, j])
-            set_ray16(packet, j, o, d, cam[C_NEAR], cam[C_FAR], lane_t[j])
             if rec is not None:
-                record(rec, tr.tile, RAYS_CAMERA, o, d, cam[C_NEAR], cam[C_FAR], lane_t[j])
+                record(rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
+                       cam[C_NEAR], cam[C_FAR], lane_t[j])
             for k in range(3):
                 ldir[j, k] = 0.0
         intersect16(tr.scene, packet)
@@ -195,7 +142,7 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
         _accumulate(lanes, ldir, n, accum, tr.counts)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _accumulate(lanes, ldir, n, accum, counts):
     """Add each lane's radiance (path + first-hit direct light) to its pixel; count non-finite ones."""
     for j in range(n):
@@ -212,7 +159,7 @@ def _accumulate(lanes, ldir, n, accum, counts):
             counts[BAD_SAMPLES] += 1
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _enqueue_shadow(tr, lane, po, wi, smax, time, c):
     """Queue a first-hit shadow ray whose unoccluded contribution c = (r, g, b) goes to `lane`."""
     q = tr.queue
@@ -246,7 +193,7 @@ def _flush_shadows(scene, q):
     q.count[0] = 0
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _shading_point(S, tr, ray, time):
     """The `ShadingPoint` of the ray's hit (in the tracer's ray buffer), its normals turned towards
     the viewer (front: the ray hit the outside), with the material's colours there."""
@@ -264,14 +211,15 @@ def _shading_point(S, tr, ray, time):
     return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _light_sample(S, path, depth, k, n_lights, queue):
     """The 2D sample of light k at bounce `depth` ((0.5, 0.5) for point and distant lights)."""
     u1 = 0.5
     u2 = 0.5
     if light_is_area(S, k):
         key = path.key
-        if depth == 0 and key.sampler == SOBOL:      # drawn with the camera packet
+        if F_SAMPLERS & B_SOBOL and depth == 0 and (F_SAMPLERS == B_SOBOL or key.sampler == SOBOL):
+            # drawn with the camera packet
             u1 = queue.light_u[2 * k, path.lane]
             u2 = queue.light_u[2 * k + 1, path.lane]
         else:
@@ -279,7 +227,7 @@ def _light_sample(S, path, depth, k, n_lights, queue):
     return u1, u2
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _direct_light(S, tr, rec, path, sp, depth, state):
     """Direct light at a shading point, one sample per light (soft shadows from area lights), added
     to the radiance state.L with throughput state.T; returns the new L.  At the first hit (depth 0)
@@ -300,7 +248,9 @@ def _direct_light(S, tr, rec, path, sp, depth, state):
         c = direct(S, sp.mat, sp.kd, sp.ks, sp.ns, sp.wo, wi, E)
         if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
             continue
-        if sp.model != D.COOL_TO_WARM:      # Gooch tone shading is unshadowed
+        if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or sp.model == D.COOL_TO_WARM):
+            pass                            # Gooch tone shading is unshadowed
+        else:
             tr.counts[RAYS_SHADOW] += 1
             smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
             if rec is not None:
@@ -317,7 +267,7 @@ def _direct_light(S, tr, rec, path, sp, depth, state):
     return Lr, Lg, Lb
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _refraction(S, key, sp, dvec, depth, state):
     """A dielectric's continuation: Fresnel-weighted choice of reflection or refraction."""
     mf = S.mat_f
@@ -347,7 +297,7 @@ def _refraction(S, key, sp, dvec, depth, state):
     return Continuation(True, (np.float64(o[0]), np.float64(o[1]), np.float64(o[2])), nd, state.T, (ar, ag, ab))
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _ggx_reflection(S, key, sp, dvec, depth, state):
     """A UsdPreviewSurface's specular continuation: a GGX-sampled reflection, Russian roulette on its
     weight (keeps rough dielectrics cheap)."""
@@ -379,7 +329,7 @@ def _ggx_reflection(S, key, sp, dvec, depth, state):
                         state.A)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _mirror_reflection(S, key, sp, dvec, depth, state):
     """The course's mirror (and glossy: r perturbed on a square of side `roughness`) continuation."""
     tr, tg, tb = state.T
@@ -402,18 +352,20 @@ def _mirror_reflection(S, key, sp, dvec, depth, state):
     return Continuation(True, (np.float64(o[0]), np.float64(o[1]), np.float64(o[2])), nd, (tr * w[0], tg * w[1], tb * w[2]), state.A)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def _continuation(S, key, sp, dvec, depth, state):
     """One specular continuation (mirror, glossy, glaze, refraction; the glossy pair is drawn only
     where a lobe uses it) from throughput state.T and medium attenuation state.A."""
-    if sp.model == D.DIELECTRIC:
+    if F_MODELS & B_DIELECTRIC and (F_MODELS == B_DIELECTRIC or sp.model == D.DIELECTRIC):
         return _refraction(S, key, sp, dvec, depth, state)
-    if sp.model == D.PREVIEW_SURFACE:
+    if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or sp.model == D.PREVIEW_SURFACE):
         return _ggx_reflection(S, key, sp, dvec, depth, state)
-    return _mirror_reflection(S, key, sp, dvec, depth, state)
+    if F_MODELS & B_MIRRORING:
+        return _mirror_reflection(S, key, sp, dvec, depth, state)
+    return Continuation(False, (0.0, 0.0, 0.0), dvec, state.T, state.A)      # no specular lobe
 
 
-@nb.njit(**SHADING_INLINE_JIT)
+@nb.njit(**STAGE_JIT)
 def trace_path(S, tr, rec, path, ray, max_depth, packet):
     """Radiance arriving along the camera ray `ray` of `path` (lane path.lane of the traced camera
     `packet`).  Its first hit's direct light is not included: those shadow rays go to the tracer's
@@ -444,7 +396,7 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
             Lb += tb * e[2]
             break
         t = float(tr.f[TFAR])
-        if ar != 1.0 or ag != 1.0 or ab != 1.0:
+        if F_MODELS & B_DIELECTRIC and (ar != 1.0 or ag != 1.0 or ab != 1.0):
             tr_ *= ar ** t
             tg *= ag ** t
             tb *= ab ** t
@@ -452,16 +404,17 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
         mf = S.mat_f
         mat = sp.mat
         # ---- transparency (UsdPreviewSurface opacity): pass straight through with prob. 1 - opacity
-        if sp.model == D.PREVIEW_SURFACE:
+        if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or sp.model == D.PREVIEW_SURFACE):
             opacity = float(mf[mat, MF_OPACITY])
-            if opacity < 1.0:
+            if F_OPACITY and opacity < 1.0:
                 if sample_1d(key.sampler, key.seed, key.pixel, key.index, key.spp,
                              choice_dim(depth, n_lights)) >= opacity:
                     ox, oy, oz = offset_origin(sp.p, (-sp.ng[0], -sp.ng[1], -sp.ng[2]), osc)
                     continue
-            Lr += tr_ * mf[mat, MF_EMIT]
-            Lg += tg * mf[mat, MF_EMIT + 1]
-            Lb += tb * mf[mat, MF_EMIT + 2]
+            if F_EMISSION:
+                Lr += tr_ * mf[mat, MF_EMIT]
+                Lg += tg * mf[mat, MF_EMIT + 1]
+                Lb += tb * mf[mat, MF_EMIT + 2]
         if has_diffuse_lobe(sp.model):
             Lr, Lg, Lb = _direct_light(S, tr, rec, path, sp, depth, PathState((Lr, Lg, Lb), (tr_, tg, tb), (ar, ag, ab)))
         if depth == max_depth:
@@ -497,7 +450,8 @@ def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
             counts[k] = 0
         x0 = (tile % ntx) * TILE
         y0 = (tile // ntx) * TILE
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile, scratch.lf,
+                    scratch.lu)
         render_tile(S, tr, pp, Tile(tile, x0, y0, min(x0 + TILE, pp.width), min(y0 + TILE, pp.height)),
                     scratch.packet, scratch.lanes, accum, rec)
         for k in range(N_COUNTERS):

@@ -7,6 +7,11 @@
   No numba `parallel=True`: a prange loop made numba lower and optimise every kernel function again
   inside a gufunc and its wrapper (the cook kernel's cold compile 96 -> 52 s without it, benchmarks/
   RESULTS.md, issue 12), and host threads claiming tiles from an atomic counter balance better.
+* `STAGE_JIT`: the stages of an integrator that have one call site (`render_tile`, `trace_path`,
+  `_direct_light`, the camera stage, ...): inlined by numba's IR inliner, so that an entry point and its
+  stages are one function - typed once, optimised once by LLVM and turned into machine code once.  As
+  functions of their own, each level of the call chain re-optimised and re-emitted everything LLVM had
+  inlined below it (cook kernel of gallery.xml: 35.5 -> 24.3 s of cold compile).
 * `JIT`: a cached, GIL-free function.
 * `SHADING_JIT`: the per-sample shading functions, which receive the scene tables (`SceneData`, a
   tuple of ~27 arrays) and allocate nothing.  With numba's reference counting on, every call to such
@@ -19,7 +24,7 @@
   receive the scene tables (a call passes the 27-array tuple as ~190 scalar arguments; inlined, the
   time per sample outside Embree halved).  They are inlined by LLVM, not by numba: numba's IR inliner
   re-types and re-lowers a callee's body at every call site, which made one `render_tile` of ~40
-  inlined helpers 70 % of a cold compile.  Here each helper is typed, lowered and cached once, as its
+  inlined helpers (every sampler and model, before kernels were specialised) 70 % of a cold compile.  Here each helper is typed, lowered and cached once, as its
   own function marked `alwaysinline`, and LLVM inlines it when its caller's module is linked and
   optimised: the same machine code after optimisation.
 
@@ -72,3 +77,4 @@ INLINE_JIT = dict(JIT, inline=_llvm_inline)
 SHADING_JIT = dict(JIT, _nrt=False)
 SHADING_INLINE_JIT = dict(SHADING_JIT, inline=_llvm_inline)
 KERNEL_JIT = dict(SHADING_JIT)
+STAGE_JIT = dict(SHADING_JIT, inline='always')

@@ -24,6 +24,7 @@ import math
 import numba as nb
 
 from .. import description as D
+from .features import B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
 from .lights import dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
@@ -78,14 +79,14 @@ def sample_ld(S, L, k, p, n, u1, u2):
     lf = S.li_f
     Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
     pos = _col(lf, k, 3)
-    if t == D.POINT:
+    if F_LIGHTS & B_POINT and (F_LIGHTS == B_POINT or t == D.POINT):
         v = sub(pos, p)
         d2 = dot(v, v)
         if d2 <= 0.0:
             return NONE
         d = math.sqrt(d2)
         return (v[0] / d, v[1] / d, v[2] / d), d, (Lr[0] / d2, Lr[1] / d2, Lr[2] / d2), 1.0, True
-    if t == D.RECT or t == D.DISK:
+    if F_LIGHTS & B_PLANAR and (t == D.RECT or t == D.DISK):
         c, ex, ey, nrm = _plane(lf, k)
         if t == D.RECT:
             a = (u1 - 0.5) * lf[k, LF_W]
@@ -106,7 +107,7 @@ def sample_ld(S, L, k, p, n, u1, u2):
         if cos_l <= 0.0:
             return NONE
         return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
-    if t == D.SPHERE:
+    if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
         r = lf[k, LF_RADIUS]
         v = sub(pos, p)
         d2 = dot(v, v)
@@ -119,15 +120,15 @@ def sample_ld(S, L, k, p, n, u1, u2):
         bq = d * dot(wi, w)
         dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
         return wi, dist, Lr, 1.0 / (2.0 * math.pi * (1.0 - cos_max)), False
-    if t == D.DISTANT:
+    if F_LIGHTS & B_DISTANT and (F_LIGHTS == B_DISTANT or t == D.DISTANT):
         w = normalize(_col(lf, k, 2))
         cos_max = lf[k, LF_COS_MAX]
         if cos_max >= 1.0:
             return w, INF, Lr, 1.0, True
         omega = 2.0 * math.pi * (1.0 - cos_max)
         return _cone(w, cos_max, u1, u2), INF, (Lr[0] / omega, Lr[1] / omega, Lr[2] / omega), 1.0 / omega, False
-    if t == D.DOME:
-        if L.dome_i[k, 0] >= 0:
+    if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or t == D.DOME):
+        if F_DOME_TEXTURE and L.dome_i[k, 0] >= 0:
             wi, pdf = sample_dome_texture(S, L, k, u1, u2)
         else:
             r = math.sqrt(u1)
@@ -199,7 +200,7 @@ def sample_dome_texture(S, L, k, u1, u2):
 def dome_pdf(S, L, k, wd, n):
     """Solid-angle pdf with which `sample_ld` draws world direction wd for dome k (n: shading normal
     of the vertex, for an untextured dome)."""
-    if L.dome_i[k, 0] < 0:
+    if not F_DOME_TEXTURE or L.dome_i[k, 0] < 0:
         c = dot(wd, n)
         return c / math.pi if c > 0.0 else 0.0
     moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
@@ -324,7 +325,7 @@ def escaped_emission(S, L, d, prev):
     lf = S.li_f
     for j in range(L.infinite.shape[0]):
         k = L.infinite[j]
-        if S.li_type[k] == D.DOME:
+        if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or S.li_type[k] == D.DOME):
             Le = dome_radiance(S, k, d)
             pl = dome_pdf(S, L, k, d, n0)
         else:

@@ -16,6 +16,8 @@ import math
 import numba as nb
 
 from .. import description as D
+from .features import (B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE, F_LIGHTS,
+                       F_LUX_LIGHTS)
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
@@ -45,15 +47,15 @@ def sample_light(S, k, p, n, u1, u2):
     t = S.li_type[k]
     lf = S.li_f
     L = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
-    if t == D.POINT:
+    if F_LIGHTS & B_POINT and (F_LIGHTS == B_POINT or t == D.POINT):
         return _sample_point(lf, k, p, L)
-    if t == D.RECT or t == D.DISK:
+    if F_LIGHTS & B_PLANAR and (t == D.RECT or t == D.DISK):
         return _sample_area(lf, k, t, p, u1, u2, L)
-    if t == D.SPHERE:
+    if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
         return _sample_sphere(lf, k, p, u1, u2, L)
-    if t == D.DISTANT:
+    if F_LIGHTS & B_DISTANT and (F_LIGHTS == B_DISTANT or t == D.DISTANT):
         return _sample_distant(lf, k, u1, u2, L)
-    if t == D.DOME:
+    if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or t == D.DOME):
         return _sample_dome(S, k, n, u1, u2)
     return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
 
@@ -162,7 +164,7 @@ def sample_course_light(S, k, p, n, u1, u2):
     sample point with no distance fall-off, no cosine at an area light and both of its sides lit
     (xml-format.md section 4); any other light as `sample_light`."""
     lf = S.li_f
-    if lf[k, LF_COURSE] == 0.0:
+    if F_LUX_LIGHTS and (not F_COURSE_LIGHTS or lf[k, LF_COURSE] == 0.0):
         return sample_light(S, k, p, n, u1, u2)
     q = _col(lf, k, 3)
     if S.li_type[k] == D.RECT:
@@ -186,14 +188,14 @@ def dome_radiance(S, k, wd):
     lf = S.li_f
     L = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
     tex = S.li_tex[k]
-    if tex < 0:
-        return L
-    # world -> light-local direction: rows of the (orthonormal up to scale) rotation
-    x = normalize(_col(lf, k, 0))
-    y = normalize(_col(lf, k, 1))
-    z = normalize(_col(lf, k, 2))
-    c = sample_latlong(S, tex, (dot(wd, x), dot(wd, y), dot(wd, z)))
-    return (L[0] * c[0], L[1] * c[1], L[2] * c[2])
+    if F_DOME_TEXTURE and tex >= 0:
+        # world -> light-local direction: rows of the (orthonormal up to scale) rotation
+        x = normalize(_col(lf, k, 0))
+        y = normalize(_col(lf, k, 1))
+        z = normalize(_col(lf, k, 2))
+        c = sample_latlong(S, tex, (dot(wd, x), dot(wd, y), dot(wd, z)))
+        return (L[0] * c[0], L[1] * c[1], L[2] * c[2])
+    return L
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -204,7 +206,7 @@ def escaped_radiance(S, wd):
     b = 0.0
     found = False
     for k in range(S.li_type.shape[0]):
-        if S.li_type[k] == D.DOME:
+        if F_LIGHTS & B_DOME and S.li_type[k] == D.DOME:
             c = dome_radiance(S, k, wd)
             r += c[0]
             g += c[1]

@@ -21,6 +21,7 @@ import math
 import numba as nb
 
 from .. import description as D
+from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS, F_TEXTURES
 from .jit import JIT, SHADING_INLINE_JIT
 from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
                     MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
@@ -37,11 +38,11 @@ def colors(S, mat, st):
     kd = (float(mf[mat, MF_KD]), float(mf[mat, MF_KD + 1]), float(mf[mat, MF_KD + 2]))
     ks = (float(mf[mat, MF_KS]), float(mf[mat, MF_KS + 1]), float(mf[mat, MF_KS + 2]))
     td = S.mat_i[mat, MI_DIFFUSE_TEX]
-    if td >= 0:
+    if F_TEXTURES and td >= 0:
         c = sample_texture(S, td, st[0], st[1])
         kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
     ts = S.mat_i[mat, MI_SPECULAR_TEX]
-    if ts >= 0:
+    if F_TEXTURES and ts >= 0:
         c = sample_texture(S, ts, st[0], st[1])
         ks = (ks[0] * c[0], ks[1] * c[1], ks[2] * c[2])
     return kd, ks
@@ -102,7 +103,7 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
     if cos_i <= 0.0:
         return (0.0, 0.0, 0.0)
     mf = S.mat_f
-    if model == D.COOL_TO_WARM:
+    if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or model == D.COOL_TO_WARM):
         # Gooch: blend by (1 + n.l)/2 between k_cool and k_warm derived from kd; the light's grey
         # level scales it so several lights add up.
         tw = 0.5 * (1.0 + cos_i)
@@ -111,7 +112,7 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
         warm = (GOOCH_YELLOW + GOOCH_BETA * kd[0], GOOCH_YELLOW + GOOCH_BETA * kd[1], GOOCH_BETA * kd[2])
         return (e * (tw * warm[0] + (1 - tw) * cool[0]), e * (tw * warm[1] + (1 - tw) * cool[1]),
                 e * (tw * warm[2] + (1 - tw) * cool[2]))
-    if model == D.PREVIEW_SURFACE:
+    if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or model == D.PREVIEW_SURFACE):
         diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
         nv = dot(n, wo)
         if nv <= 0.0:
@@ -127,7 +128,7 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
         g = (diff[1] / math.pi * (1.0 - F1) + dg * F1) * E[1] * cos_i
         b = (diff[2] / math.pi * (1.0 - F2) + dg * F2) * E[2] * cos_i
         cc = float(mf[mat, MF_CLEARCOAT])
-        if cc > 0.0:
+        if F_CLEARCOAT and cc > 0.0:
             ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001) ** 2
             Fc = _schlick(0.04, 1.0, vh)
             spec = cc * Fc * ggx_d(nh, ca) * smith_g(cos_i, nv, ca) / (4.0 * cos_i * nv)

@@ -1,7 +1,8 @@
 """The ray recorder: every ray a render traces, for benchmarks/bench_render.py, which replays the
 renderer's own rays on bare Embree to separate Embree's time from the shading's.
 
-`render_pass(..., rec)` with `rec = new_ray_record(n_tiles, cap)` records; with `rec=None` (every
+`integrator.render_tiles(..., rec)` (`Renderer.run_pass(..., ray_record=rec)`) with
+`rec = new_ray_record(n_tiles, cap)` records; with `rec=None` (every
 render) numba compiles a specialisation in which each `if rec is not None:` branch is pruned before
 type inference, so rendering pays nothing for the feature (measured: benchmarks/RESULTS.md).
 """

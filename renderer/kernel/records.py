@@ -3,14 +3,15 @@ they cost nothing; passed to a compiled function, a record crosses the call as i
 
 Per render pass
     PassParams      what a pass computes: camera table, image size, sample range, sampler, filter, seed,
-                    depth, whether the lens and the shutter are sampled
+                    depth, whether the lens and the shutter are sampled, the path integrator's strategy
     Tile            the pixels [x0, x1) x [y0, y1) of tile `index`
 Per thread (allocated once per tile by `render_pass`; the shading code allocates nothing)
     Packet          an RTCRayHit16 packet: valid mask, float32 and uint32 views of its fields
     ShadowQueue     first-hit shadow rays waiting to be traced as one rtcOccluded16 packet
     Lanes           the camera stage's per-lane state (structure of arrays, so that loops vectorise)
     Scratch         one render thread's arrays, allocated by the host (`integrator.new_scratch`): the camera
-                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes
+                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes,
+                    the light-shape queries' ray buffer (path)
     Tracer          what tracing a path needs besides the scene tables: the Embree scene, the single-ray
                     buffer, matrix scratch, ray counters, the shadow queue and the tile index
 Per path and bounce
@@ -23,22 +24,28 @@ Per path and bounce
                     viewer), texture coordinates, material and model, which side was hit, the direction
                     to the viewer and the material's (textured) colours
     PathState       radiance gathered so far, throughput, and the Beer attenuation of the current medium
+    Vertex          a path vertex as next-event estimation needs it (path): position, normals, shading frame,
+                    direction to the viewer in that frame, shadow-ray origin, time
+    PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
+                    and how the light it finds is weighted (power heuristic, 1, or 0)
     Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
 """
 from collections import namedtuple
 
 PassParams = namedtuple('PassParams', ['cam', 'width', 'height', 's0', 's1', 'spp', 'sampler', 'filt', 'seed',
-                                       'max_depth', 'use_lens', 'use_time'])
+                                       'max_depth', 'use_lens', 'use_time', 'strategy'])
 Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
 Packet = namedtuple('Packet', ['valid', 'f', 'u'])
 ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
 Lanes = namedtuple('Lanes', ['o', 'd', 'time', 'ids', 'L', 'u', 'film', 'key32', 'work'])
-Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes'])
-Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile'])
+Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes', 'lf', 'lu'])
+Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile', 'lf', 'lu'])
 SampleKey = namedtuple('SampleKey', ['sampler', 'seed', 'pixel', 'index', 'spp'])
 Path = namedtuple('Path', ['key', 'lane', 'time'])
 Ray = namedtuple('Ray', ['o', 'd'])
 Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v', 't'])
 ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks'])
 PathState = namedtuple('PathState', ['L', 'T', 'A'])
+Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time'])
+PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode'])
 Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])

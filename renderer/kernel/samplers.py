@@ -65,6 +65,7 @@ from numba import njit, types
 from numba.extending import intrinsic
 
 from .dimensions import DIM_LENS, DIM_PIXEL, lens_dim, pixel_dim
+from .features import B_CMJ, B_SOBOL, B_STRATIFIED, F_SAMPLERS
 from .jit import INLINE_JIT, JIT, SHADING_JIT
 
 # --------------------------------------------------------------------------- public constants
@@ -453,12 +454,13 @@ def sample_2d(sampler, seed, pixel, index, spp, dim):
     index = np.int64(index)
     spp = max(np.int64(spp), 1)
     dim = np.int64(dim)
-    if sampler == SOBOL:
+    # the samplers a kernel can meet (features.F_SAMPLERS): a render's kernel holds its own sampler only
+    if F_SAMPLERS & B_SOBOL and (F_SAMPLERS == B_SOBOL or sampler == SOBOL):
         return sobol_sample_2d(seed, pixel, index, dim)
-    if sampler == CMJ:
+    if F_SAMPLERS & B_CMJ and (F_SAMPLERS == B_CMJ or sampler == CMJ):
         p, i = _pattern(seed, pixel, index, spp, dim)
         return cmj(i, spp, p)
-    if sampler == STRATIFIED:
+    if F_SAMPLERS & B_STRATIFIED and (F_SAMPLERS == B_STRATIFIED or sampler == STRATIFIED):
         return stratified_sample_2d(seed, pixel, index, spp, dim)
     return independent_sample_2d(seed, pixel, index, dim)
 
@@ -467,7 +469,7 @@ def sample_2d(sampler, seed, pixel, index, spp, dim):
 def sample_pixel_lens(sampler, seed, pixel, index, spp):
     """Pairs DIM_PIXEL and DIM_LENS of one sample together, (a, b, lens_u, lens_v): the values of
     two `sample_2d` calls; the Sobol' sampler computes its 4D point once (~35 % less time)."""
-    if sampler == SOBOL:
+    if F_SAMPLERS & B_SOBOL and (F_SAMPLERS == B_SOBOL or sampler == SOBOL):
         return sobol_sample_4d(np.int64(seed) & _M32, np.int64(pixel), np.int64(index))
     a, b = sample_2d(sampler, seed, pixel, index, spp, pixel_dim())
     lu, lv = sample_2d(sampler, seed, pixel, index, spp, lens_dim())
@@ -481,13 +483,13 @@ def sample_1d(sampler, seed, pixel, index, spp, dim):
     second for CMJ (its y is stratified into N strata even when N is not square); for STRATIFIED
     it is a 1D jittered sample (spp strata instead of the grid's nx), so a pair should be used
     either as 1D or as 2D, not both."""
-    if sampler == STRATIFIED:
+    if F_SAMPLERS & B_STRATIFIED and (F_SAMPLERS == B_STRATIFIED or sampler == STRATIFIED):
         seed = np.int64(seed) & _M32
         spp = max(np.int64(spp), 1)
         p, i = _pattern(seed, np.int64(pixel), np.int64(index), spp, np.int64(dim))
         s = permute(i, spp, p)
         return min((s + randfloat(s, p * 0x8DA6B343)) / spp, _ONE_MINUS)
-    if sampler == SOBOL:
+    if F_SAMPLERS & B_SOBOL and (F_SAMPLERS == B_SOBOL or sampler == SOBOL):
         # Only the first coordinate: skip the second dimension's work.
         seed = np.int64(seed) & _M32
         pixel = np.int64(pixel)
@@ -500,7 +502,7 @@ def sample_1d(sampler, seed, pixel, index, spp, dim):
             d0 = 0
         shuffled = nested_uniform_scramble(index, pseed)
         return to_unit(nested_uniform_scramble(sobol(shuffled, d0), hash_combine(pseed, d0)))
-    if sampler == CMJ:
+    if F_SAMPLERS & B_CMJ and (F_SAMPLERS == B_CMJ or sampler == CMJ):
         return sample_2d(sampler, seed, pixel, index, spp, dim)[1]
     return sample_2d(sampler, seed, pixel, index, spp, dim)[0]
 

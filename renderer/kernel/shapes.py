@@ -16,6 +16,7 @@ import math
 
 import numba as nb
 
+from .features import F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
 from .tables import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
 from .trace import instance_transform
@@ -38,7 +39,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
         mat = S.matset[base + slot]
     if mat < 0:
         mat = S.gp_material[g]
-    if S.in_xf.shape[1] > 1:
+    if F_XF_MOTION and S.in_xf.shape[1] > 1:
         instance_transform(scene, inst_id, inst_prim, time, m32)
         for i in range(3):
             for j in range(4):
@@ -46,7 +47,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
     else:
         lerp_xf(S.in_xf, row, time, m)
     flags = S.gp_flags[g]
-    if S.gp_kind[g] == GP_SPHERE:
+    if F_SPHERES and S.gp_kind[g] == GP_SPHERE:
         k = S.gp_off[g]
         c = (S.sph[k, 0], S.sph[k, 1], S.sph[k, 2])
         r = S.sph[k, 3]
@@ -60,7 +61,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
         # (an atan2 and an asin per hit otherwise wasted)
         s = 0.0
         tt = 0.0
-        if S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0:
+        if F_TEXTURES and (S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0):
             s = 0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi)
             tt = 0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi
         return p, ng, ng, (s, tt), g, mat
@@ -75,7 +76,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
     p = xform_point(m, pobj)
     ng = normalize(cofactor_dir(m, cross(e1, e2)))
     ns = ng
-    if flags & GP_HAS_NORMALS:
+    if F_NORMALS and flags & GP_HAS_NORMALS:
         k = S.gp_n_off[g] + prim_id
         nn = S.tri_n
         nsum = (w0 * nn[k, 0, 0] + bu * nn[k, 1, 0] + bv * nn[k, 2, 0],
@@ -84,7 +85,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
         if nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2] > 0.0:
             ns = normalize(cofactor_dir(m, nsum))
     st = (bu, bv)
-    if flags & GP_HAS_UVS:
+    if F_UVS and flags & GP_HAS_UVS:
         k = S.gp_uv_off[g] + prim_id
         uv = S.tri_uv
         st = (w0 * uv[k, 0, 0] + bu * uv[k, 1, 0] + bv * uv[k, 2, 0],

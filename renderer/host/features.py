@@ -1,0 +1,52 @@
+"""The kernel features of a render: what its scene and options need of the kernels
+(`kernel/features.py`), read from the very tables the kernels will read, so that a kernel specialised
+for them computes exactly what the general kernel computes.
+
+`RTC_KERNELS=general` in the environment renders every scene with the general kernel instead (one
+compile serves every scene: the test suite uses it; tests/renderer/test_specialize.py checks that
+the specialised kernels give the general kernel's images bit for bit).
+"""
+from __future__ import annotations
+
+import os
+
+import numpy as np
+
+from .. import description as D
+from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
+from ..kernel.tables import (C_LENS, C_ORTHO, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LF_COURSE, MF_CLEARCOAT, MF_EMIT,
+                             MF_OPACITY, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
+
+
+def general_kernels() -> bool:
+    """True if the environment asks for the general kernel for every scene (RTC_KERNELS=general)."""
+    return os.environ.get('RTC_KERNELS', '').strip().lower() == 'general'
+
+
+def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None) -> Features:
+    """The `Features` of a render of the built scene tables `data` (`build.SceneData`) with resolved
+    `options`, camera table `ctab` and shutter sampling `use_time`; `lights`: the path integrator's
+    `PathLights` record (None for cook)."""
+    path = options.integrator == 'path'
+    used = np.unique(np.concatenate([data.gp_material, data.matset[data.matset >= 0]]))     # materials hit can have
+    mi, mf = data.mat_i[used], data.mat_f[used]
+    preview = mi[:, MI_MODEL] == D.PREVIEW_SURFACE
+    kinds = data.li_type[data.li_type >= 0]
+    rows = np.flatnonzero(data.li_type >= 0)
+    course = data.li_f[rows, LF_COURSE] != 0.0
+    domes = rows[kinds == D.DOME]
+    mesh_flags = data.gp_flags[data.gp_kind == GP_MESH]          # (a sphere's flags are not read)
+    return Features(
+        samplers=1 << SAMPLER_IDS[options.sampler], filters=1 << FILTER_IDS[options.filter],
+        models=bits(np.unique(mi[:, MI_MODEL])), lights=bits(np.unique(kinds)),
+        course_lights=bool(not path and np.any(course)), lux_lights=bool(path or np.any(~course)),
+        dome_texture=bool(np.any(data.li_tex[domes] >= 0)),
+        light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
+        textures=bool(np.any(mi[:, MI_DIFFUSE_TEX] >= 0) or np.any(mi[:, MI_SPECULAR_TEX] >= 0)),
+        opacity=bool(np.any(mf[preview, MF_OPACITY] < 1.0)),
+        emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
+        clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),
+        spheres=bool(np.any(data.gp_kind == GP_SPHERE)),
+        normals=bool(np.any(mesh_flags & GP_HAS_NORMALS)), uvs=bool(np.any(mesh_flags & GP_HAS_UVS)),
+        xf_motion=data.in_xf.shape[1] > 1, ortho=bool(ctab[C_ORTHO] != 0.0), lens=bool(ctab[C_LENS] > 0.0),
+        time=bool(use_time))
