@@ -26,7 +26,7 @@ from .film import Film
 from ..kernel.filters import FILTER_NAMES
 from ..kernel.integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
                                  new_scratch, render_tiles)
-from ..kernel.tiles import n_tiles
+from ..kernel.tiles import TILE, n_tiles
 from ..kernel.records import PassParams
 from ..kernel.specialize import specialize
 from ..kernel.samplers import SAMPLER_NAMES
@@ -117,11 +117,12 @@ class Renderer:
         return PassSetup(entry, features, ctab, use_lens, use_time)
 
     def run_pass(self, o: RenderOptions, setup: PassSetup, s0: int, s1: int, sums: np.ndarray, counters: np.ndarray,
-                 ray_record=None) -> None:
-        """Add samples [s0, s1) of every pixel to `sums` (height, width, 3) float64 with the integrator of
-        resolved options `o`, on every render thread; `counters` int64 (n_tiles, N_COUNTERS); `ray_record`:
-        None, or a `ray_record.RayRecord` that receives every ray (cook only: benchmarks)."""
-        pp = self.pass_params(o, s0, s1, setup.ctab, setup.use_lens, setup.use_time)
+                 ray_record=None, window=None) -> None:
+        """Add samples [s0, s1) of every pixel of `window` (x0, y0, x1, y1; None: the whole image) to `sums`
+        (window height, width, 3) float64 with the integrator of resolved options `o`, on every render
+        thread; `counters` int64 (n_tiles of the whole image, N_COUNTERS); `ray_record`: None, or a
+        `ray_record.RayRecord` that receives every ray (cook only: benchmarks)."""
+        pp = self.pass_params(o, s0, s1, setup.ctab, setup.use_lens, setup.use_time, window)
         n = self.n_threads() if s1 > s0 else 1
         while len(self._scratch) < n:
             self._scratch.append(new_scratch(len(self.built.data.li_type)))
@@ -178,26 +179,32 @@ class Renderer:
                             motion_blur=use_time)
         return ctab, bool(ctab[C_LENS] > 0), use_time
 
-    def pass_params(self, o: RenderOptions, s0: int, s1: int, ctab=None, use_lens=None, use_time=None):
-        """The kernels' `PassParams` of samples [s0, s1) of a render with resolved options `o`."""
+    def pass_params(self, o: RenderOptions, s0: int, s1: int, ctab=None, use_lens=None, use_time=None, window=None):
+        """The kernels' `PassParams` of samples [s0, s1) of a render with resolved options `o` (of the pixels
+        of `window`, None: the whole image)."""
         if ctab is None:
             ctab, use_lens, use_time = self.camera(o)
+        window = check_window(window, o.width, o.height)
         return PassParams(ctab, o.width, o.height, s0, s1, o.spp, SAMPLER_NAMES[o.sampler], FILTER_NAMES[o.filter],
-                          o.seed, o.max_depth, bool(use_lens), bool(use_time), STRATEGIES[o.strategy])
+                          o.seed, o.max_depth, bool(use_lens), bool(use_time), STRATEGIES[o.strategy], window)
 
     def render(self, options: RenderOptions | None = None, *, film: Film | None = None, should_stop=lambda: False,
-               on_pass=None, ray_record=None) -> RenderResult:
+               on_pass=None, ray_record=None, window=None) -> RenderResult:
         """Render with `options` resolved against the scene's render settings (None: the options the
         reader resolved) until `spp` samples per pixel (continuing `film` if given) or until
         `should_stop()` is true between passes.  `on_pass(result)` is called after every pass.
         `ray_record`: None, or `ray_record.new_ray_record(n_tiles, cap)` to store the rays traced
-        (benchmarks)."""
+        (benchmarks).  `window` (x0, y0, x1, y1): render only those pixels, into a film of the window's
+        size, bit for bit the same values as the whole image's render there (a shot's tile task); x0, y0
+        multiples of `tiles.TILE`, x1, y1 too or the image's edges."""
         o = resolve(options if options is not None else self.desc.options, self.desc.settings)
         setup = self.setup(o)
+        win = check_window(window, o.width, o.height)
+        fw, fh = win[2] - win[0], win[3] - win[1]
         if film is None:
-            film = Film(o.width, o.height)
-        elif (film.width, film.height) != (o.width, o.height):
-            raise RenderError(f'checkpoint is {film.width}x{film.height}, render is {o.width}x{o.height}')
+            film = Film(fw, fh)
+        elif (film.width, film.height) != (fw, fh):
+            raise RenderError(f'checkpoint is {film.width}x{film.height}, render is {fw}x{fh}')
         counters = np.zeros((n_tiles(o.width, o.height), N_COUNTERS), np.int64)
         stats = RenderStats(build_seconds=self.build_seconds)
         result = RenderResult(image=film.image(), film=film, options=o, stats=stats)
@@ -205,7 +212,7 @@ class Renderer:
         # an empty pass (no samples) loads the cached kernel - or compiles it on the very first run -
         # so that the render's time and ray rate measure rendering only
         t0 = _time.perf_counter()
-        self.run_pass(o, setup, s, s, film.sum, counters, ray_record)
+        self.run_pass(o, setup, s, s, film.sum, counters, ray_record, win)
         stats.kernel_seconds = _time.perf_counter() - t0
         t_start = _time.perf_counter()
         step = 1
@@ -215,7 +222,7 @@ class Renderer:
                 break
             s1 = min(o.spp, s + step)
             t0 = _time.perf_counter()
-            self.run_pass(o, setup, s, s1, film.sum, counters, ray_record)
+            self.run_pass(o, setup, s, s1, film.sum, counters, ray_record, win)
             dt = _time.perf_counter() - t0
             film.count += s1 - s
             stats.passes.append((s1, dt))
@@ -234,6 +241,19 @@ class Renderer:
         stats.seconds = _time.perf_counter() - t_start
         result.image = film.image()
         return result
+
+
+def check_window(window, width: int, height: int) -> tuple:
+    """The pixel window (x0, y0, x1, y1) of a render of width x height pixels: None is the whole image;
+    else x0, y0 multiples of TILE, x1, y1 multiples of TILE or the image's edges (RenderError if not)."""
+    if window is None:
+        return (0, 0, int(width), int(height))
+    x0, y0, x1, y1 = (int(v) for v in window)
+    ok = (0 <= x0 < x1 <= width and 0 <= y0 < y1 <= height and x0 % TILE == 0 and y0 % TILE == 0
+          and (x1 % TILE == 0 or x1 == width) and (y1 % TILE == 0 or y1 == height))
+    if not ok:
+        raise RenderError(f'window {window} is not a window of {TILE}-pixel tiles of a {width}x{height} image')
+    return (x0, y0, x1, y1)
 
 
 def render(desc: D.SceneDescription, options: RenderOptions | None = None, **kw) -> RenderResult:

@@ -39,12 +39,12 @@ from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .ray_record import record
-from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue, Tile,
+from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
-from .tiles import TILE, n_tiles, next_tile
+from .tiles import claim_tile
 from .trace import (PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1, intersect16, lane_hit,
                     occluded1, occluded16, set_ray16)
 from .vecmath import dot, normalize, offset_origin, onb, reflect
@@ -139,19 +139,21 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
             lanes.L[j, 1] = g
             lanes.L[j, 2] = bl
         _flush_shadows(tr.scene, tr.queue)
-        _accumulate(lanes, ldir, n, accum, tr.counts)
+        _accumulate(lanes, ldir, n, accum, (pp.window[0], pp.window[1]), tr.counts)
 
 
 @nb.njit(**STAGE_JIT)
-def _accumulate(lanes, ldir, n, accum, counts):
-    """Add each lane's radiance (path + first-hit direct light) to its pixel; count non-finite ones."""
+def _accumulate(lanes, ldir, n, accum, origin, counts):
+    """Add each lane's radiance (path + first-hit direct light) to its pixel of `accum`, whose pixel (0, 0)
+    is image pixel `origin`; count non-finite ones."""
+    ox, oy = origin
     for j in range(n):
         r = lanes.L[j, 0] + ldir[j, 0]
         g = lanes.L[j, 1] + ldir[j, 1]
         bl = lanes.L[j, 2] + ldir[j, 2]
         if math.isfinite(r) and math.isfinite(g) and math.isfinite(bl):
-            x = lanes.ids[2, j]
-            y = lanes.ids[3, j]
+            x = lanes.ids[2, j] - ox
+            y = lanes.ids[3, j] - oy
             accum[y, x, 0] += r
             accum[y, x, 1] += g
             accum[y, x, 2] += bl
@@ -433,26 +435,21 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
 
 @nb.njit(**KERNEL_JIT)
 def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
-    """Add samples [pp.s0, pp.s1) of the tiles this thread claims to `accum` (height, width, 3) float64:
-    the host runs it on every render thread at once, each with its own `Scratch`; `work` (int64 [1])
-    is the pass's shared tile counter (`tiles.claim`: the next unclaimed tile, atomically), so threads
-    share the tiles dynamically.  pp: `PassParams`; counters: int64 (n_tiles, N_COUNTERS), one row per
-    tile (no shared writes).  rec: None, or a `ray_record.RayRecord` that receives every ray traced.
-    Which thread renders a tile changes nothing in it: images are bit-identical for any thread count."""
-    ntx = (pp.width + TILE - 1) // TILE
-    ntiles = n_tiles(pp.width, pp.height)
+    """Add samples [pp.s0, pp.s1) of the tiles of the pass's window this thread claims to `accum`
+    (window height, width, 3) float64: the host runs it on every render thread at once, each with its own
+    `Scratch`; `work` (int64 [1]) is the pass's shared tile counter (`tiles.claim_tile`: the next
+    unclaimed tile, atomically), so threads share the tiles dynamically.  pp: `PassParams`; counters: int64
+    (n_tiles, N_COUNTERS), one row per tile (no shared writes).  rec: None, or a `ray_record.RayRecord`
+    that receives every ray traced.  Which thread renders a tile changes nothing in it: images are bit-identical for any thread count."""
     counts = scratch.counts
     while True:
-        tile = next_tile(work, ntiles)
-        if tile < 0:
+        tile = claim_tile(pp, work)
+        if tile.index < 0:
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        x0 = (tile % ntx) * TILE
-        y0 = (tile // ntx) * TILE
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile, scratch.lf,
-                    scratch.lu)
-        render_tile(S, tr, pp, Tile(tile, x0, y0, min(x0 + TILE, pp.width), min(y0 + TILE, pp.height)),
-                    scratch.packet, scratch.lanes, accum, rec)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
+                    scratch.lf, scratch.lu)
+        render_tile(S, tr, pp, tile, scratch.packet, scratch.lanes, accum, rec)
         for k in range(N_COUNTERS):
-            counters[tile, k] += counts[k]
+            counters[tile.index, k] += counts[k]

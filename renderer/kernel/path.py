@@ -42,10 +42,10 @@ from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RA
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
-from .records import Path, PrevVertex, Ray, SampleKey, Tile, Tracer, Vertex
+from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d, sample_2d
 from .tables import MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
-from .tiles import TILE, n_tiles, next_tile
+from .tiles import claim_tile
 from .trace import PACKET, TFAR, intersect1, intersect16, lane_hit, occluded1
 from .vecmath import dot, offset_origin, onb, to_world
 
@@ -220,8 +220,8 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
             c = trace_path(S, L, tr, pp, path, Ray((lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j])),
                            packet)
             if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
-                x = ids[2, j]
-                y = ids[3, j]
+                x = ids[2, j] - pp.window[0]
+                y = ids[3, j] - pp.window[1]
                 accum[y, x, 0] += c[0]
                 accum[y, x, 1] += c[1]
                 accum[y, x, 2] += c[2]
@@ -231,25 +231,20 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
 
 @nb.njit(**KERNEL_JIT)
 def render_tiles_path(S, L, scene, pp, scratch, work, accum, counters):
-    """Add samples [pp.s0, pp.s1) of the tiles this thread claims (`tiles.next_tile` on the pass's
-    shared counter `work`) to accum (height, width, 3) float64 with the path integrator; the host runs
+    """Add samples [pp.s0, pp.s1) of the tiles of the pass's window this thread claims (`tiles.claim_tile`
+    on the pass's shared counter `work`) to accum (window height, width, 3) float64 with the path integrator; the host runs
     it on every render thread, each with its own `Scratch` (`integrator.new_scratch`).  pp:
     `PassParams`; L: `host.light_selection.PathLights`; counters int64 (n_tiles, N_COUNTERS), one row
     per tile."""
-    ntx = (pp.width + TILE - 1) // TILE
-    ntiles = n_tiles(pp.width, pp.height)
     counts = scratch.counts
     while True:
-        tile = next_tile(work, ntiles)
-        if tile < 0:
+        tile = claim_tile(pp, work)
+        if tile.index < 0:
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        x0 = (tile % ntx) * TILE
-        y0 = (tile // ntx) * TILE
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile, scratch.lf,
-                    scratch.lu)
-        path_tile(S, L, tr, pp, Tile(tile, x0, y0, min(x0 + TILE, pp.width), min(y0 + TILE, pp.height)),
-                  scratch.packet, scratch.lanes, accum)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
+                    scratch.lf, scratch.lu)
+        path_tile(S, L, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
-            counters[tile, k] += counts[k]
+            counters[tile.index, k] += counts[k]

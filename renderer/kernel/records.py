@@ -3,7 +3,8 @@ they cost nothing; passed to a compiled function, a record crosses the call as i
 
 Per render pass
     PassParams      what a pass computes: camera table, image size, sample range, sampler, filter, seed,
-                    depth, whether the lens and the shutter are sampled, the path integrator's strategy
+                    depth, whether the lens and the shutter are sampled, the path integrator's strategy, the
+                    window of the image it renders (x0, y0, x1, y1: the whole image, or a shot's tile)
     Tile            the pixels [x0, x1) x [y0, y1) of tile `index`
 Per thread (allocated once per tile by `render_pass`; the shading code allocates nothing)
     Packet          an RTCRayHit16 packet: valid mask, float32 and uint32 views of its fields
@@ -33,7 +34,7 @@ Per path and bounce
 from collections import namedtuple
 
 PassParams = namedtuple('PassParams', ['cam', 'width', 'height', 's0', 's1', 'spp', 'sampler', 'filt', 'seed',
-                                       'max_depth', 'use_lens', 'use_time', 'strategy'])
+                                       'max_depth', 'use_lens', 'use_time', 'strategy', 'window'])
 Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
 Packet = namedtuple('Packet', ['valid', 'f', 'u'])
 ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
