@@ -3,6 +3,7 @@ versions are only compared by renders that alternate in one process.
 
     python benchmarks/ab_render.py scenes/dof.xml scenes/bunnies.xml --base HEAD --spp 8 --rounds 9
     python benchmarks/ab_render.py scenes/*.xml --base HEAD~3 --threads 1
+    python benchmarks/ab_render.py scenes/gallery.xml --integrator path --max-depth 8
 
 `--base REV` is a git revision whose `renderer/` (from `git archive`) is imported as a second package
 beside the working tree's `renderer/`; `--base-tree DIR` takes a directory holding a `renderer/`
@@ -75,6 +76,7 @@ def main(argv=None) -> int:
     ap.add_argument('--sampler', default='sobol')
     ap.add_argument('--filter', default='gaussian')
     ap.add_argument('--max-depth', type=int, default=4)
+    ap.add_argument('--integrator', choices=['cook', 'path'], default='cook')
     ap.add_argument('--seed', type=int, default=7)
     ap.add_argument('--threads', type=int, default=1)
     ap.add_argument('--rounds', type=int, default=7)
@@ -85,13 +87,13 @@ def main(argv=None) -> int:
     new = importlib.import_module('rtc.renderer.host.render')
     numba.set_num_threads(a.threads)
     print(f'base {a.base_tree or a.base} vs working tree; {a.width}x{a.height}, {a.spp} spp, {a.sampler}/{a.filter}, '
-          f'max depth {a.max_depth}, {a.threads} thread(s), {a.rounds} rounds', flush=True)
+          f'{a.integrator}, max depth {a.max_depth}, {a.threads} thread(s), {a.rounds} rounds', flush=True)
     for path in a.scenes:
         desc = load(path)
         versions = {}
         for label, mod in (('base', base), ('new', new)):
             opts = mod.RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler=a.sampler, filter=a.filter,
-                                     seed=a.seed, max_depth=a.max_depth)
+                                     seed=a.seed, max_depth=a.max_depth, integrator=a.integrator)
             r = mod.Renderer(desc)
             t0 = time.perf_counter()
             r.render(mod.RenderOptions(**{**opts.__dict__, 'spp': 1}))          # kernel load / compile

@@ -160,8 +160,8 @@ def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked
     elif ckpt_path.exists() and res.film.spp >= resolved.spp:
         ckpt_path.unlink()
     if not quiet and res.stats.kernel_seconds > 2.0:
-        click.echo(f'rtc: compiled the rendering kernels in {res.stats.kernel_seconds:.0f} s '
-                   f'(once: later runs load them from the cache)', err=True)
+        click.echo(f'rtc: compiled the rendering kernels for this scene\'s features in {res.stats.kernel_seconds:.0f} s '
+                   f'(once: later renders that need the same features load them from the cache)', err=True)
     if not quiet:
         click.echo(summary_line(res.stats.seconds, res.film.spp, res.stats.rays, resolved.width, resolved.height),
                    err=True)
