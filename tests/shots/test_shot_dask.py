@@ -162,3 +162,43 @@ def test_a_worker_that_cannot_read_the_scene_is_named(scheduler, tmp_path):
     assert 'tcp://127.0.0.1:' in p.stderr and 'elsewhere/shot.usda: no such file' in p.stderr
     assert 'Traceback' not in p.stderr
     assert os.listdir(tmp_path) == []
+
+
+BIG = dict(width=256, height=192, spp=2)                 # 49 152 pixels: 12 tiles of 64x64 fit
+
+
+@pytest.fixture(scope='module')
+def big_reference(shot_path):
+    return render(read_stage(shot_path, time=2), RenderOptions(seed=3, **BIG)).image
+
+
+def test_a_large_frame_is_tiled_over_two_workers_bit_identical(client, shot_path, big_reference, tmp_path):
+    res = run_shot(Job(shot='', scene=shot_path, options=RenderOptions(seed=3, **BIG), threads=1), [2],
+                   str(tmp_path / 'big.exr'), client=client)
+    assert (res.tiles, res.split, res.tasks) == (4, 1, 4)            # tiles, no sample ranges: 2 per worker
+    assert len(res.by_worker) == 2
+    assert same_bits(tmp_path / 'big.exr', big_reference)
+    # back: each tile's float32 pixels, no more than the whole frame's
+    assert res.bytes_from_worker == [128 * 96 * 12] * 4                # 128x96 tiles
+    assert sum(res.bytes_from_worker) == 256 * 192 * 12
+    assert all(b < 4096 for b in res.bytes_to_worker)
+
+
+def test_tiles_times_sample_ranges_are_bit_identical(client, shot_path, big_reference, tmp_path):
+    res = run_shot(Job(shot='', scene=shot_path, options=RenderOptions(seed=3, **BIG), threads=1), [2],
+                   str(tmp_path / 'big.exr'), client=client, tiles=6, split=2)
+    assert (res.tiles, res.split, res.tasks) == (6, 2, 12)
+    assert same_bits(tmp_path / 'big.exr', big_reference)
+    # back: one float64 film of the tile per sample (1 sample per range here)
+    assert sum(res.bytes_from_worker) == 256 * 192 * 24 * 2
+
+
+def test_progress_moves_with_samples_while_a_frame_renders(client, shot_path, tmp_path):
+    seen = []
+    res = run_shot(_job(shot_path, 256), [1], str(tmp_path / 'p.exr'), client=client, tiles=1, split=1,
+                   watch=lambda frames, samples, rays: seen.append((frames, samples, rays)))
+    total = 32 * 24 * 256
+    assert res.tasks == 1 and res.events >= 1
+    during = [s for f, s, r in seen if f == 0 and 0 < s < total]      # reported by the running task
+    assert during and during == sorted(during)
+    assert seen[-1][:2] == (1, total) and seen[-1][2] == res.rays

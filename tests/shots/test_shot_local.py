@@ -7,10 +7,11 @@ import sys
 import numpy as np
 import pytest
 
-from rtc.renderer.host.render import RenderOptions
+from rtc.renderer.host.render import RenderOptions, render
 from rtc.renderer.host.shots.frames import ShotError
 from rtc.renderer.host.shots.run import run_shot
 from rtc.renderer.host.shots.worker import Job
+from rtc.renderer.usd.stage import read_stage
 
 from .conftest import FRAMES, H, SPP, W, same_bits
 
@@ -115,3 +116,31 @@ def test_prototypes_are_reused_only_when_their_geometry_is_the_same(shot_path):
     d = copy.deepcopy(b)
     d.containers[0].meshes.pop()
     assert not same_containers(a, d)
+
+
+def test_tiles_in_this_process_with_the_cook_integrator_are_bit_identical(shot_path, tmp_path):
+    o = RenderOptions(seed=3, integrator='cook', width=72, height=40)     # tiles end at the image's edges
+    ref = render(read_stage(shot_path, time=3), o).image
+    res = run_shot(Job(shot='', scene=shot_path, options=o), [3], str(tmp_path / 'c.exr'), tiles=3)
+    assert res.tiles == 3 and res.tasks == 3
+    assert same_bits(tmp_path / 'c.exr', ref)
+    res = run_shot(Job(shot='', scene=shot_path, options=o), [3], str(tmp_path / 'd.exr'), tiles=2, split=2)
+    assert (res.tiles, res.split, res.tasks) == (2, 2, 4)
+    assert same_bits(tmp_path / 'd.exr', ref)
+
+
+def test_progress_in_this_process_counts_every_sample(shot_path, tmp_path):
+    seen = []
+    res = run_shot(_job(shot_path), [1, 2], str(tmp_path / 'p.####.exr'),
+                   watch=lambda frames, samples, rays: seen.append((frames, samples, rays)))
+    assert seen[-1] == (2, 2 * W * H * SPP, res.rays)
+    assert [f for f, _, _ in seen] == sorted(f for f, _, _ in seen)
+    assert any(f == 0 and 0 < s for f, s, _ in seen)             # a pass reported before the frame was written
+
+
+def test_reads_reuse_static_gprims_and_change_no_bit(shot_path, reference, tmp_path):
+    on = run_shot(_job(shot_path), [1, 2, 3], str(tmp_path / 'on.####.exr'))
+    off = run_shot(_job(shot_path, reuse_reads=False), [1, 2, 3], str(tmp_path / 'off.####.exr'))
+    for f in (1, 2, 3):
+        assert same_bits(tmp_path / f'on.{f:04d}.exr', reference(f))
+        assert same_bits(tmp_path / f'off.{f:04d}.exr', reference(f))

@@ -5,6 +5,8 @@ The same functions run in-process for a shot without Dask and inside Dask worker
 plain dicts of numpy arrays and numbers (what crosses the network).  Per process, a worker keeps
 the open stage of the shot and the last frame's Renderer:
 
+* a new frame reads the stage at its time code, but static gprims (no time-varying attribute)
+  are converted once per shot (`usd.geometry_cache.GeometryCache`);
 * a frame read again (another sample range of it) reuses the built scene as it is;
 * a new frame whose containers (prototype meshes and spheres) equal the last frame's takes over
   its prototype BVHs and builds only the top level (`build(..., reuse=)`): only placements, the
@@ -39,6 +41,7 @@ class Job:
     camera: Optional[str] = None
     threads: Optional[int] = None      # numba / Embree threads of a render (None: all)
     reuse: bool = True                 # reuse prototype BVHs across frames when only placements move
+    reuse_reads: bool = True           # convert static gprims once per shot (usd.geometry_cache)
 
 
 class TaskFailed(Exception):
@@ -70,9 +73,10 @@ def _open_usd(path: str):
 
 def _stage(job: Job):
     if _state.get('shot') != job.shot:
+        from ...usd.geometry_cache import GeometryCache
         close()
         stage = job.opener(job.scene) if job.opener is not None else _open_usd(job.scene)
-        _state.update(shot=job.shot, stage=stage)
+        _state.update(shot=job.shot, stage=stage, geometry=GeometryCache() if job.reuse_reads else None)
     return _state['stage']
 
 
@@ -85,7 +89,7 @@ def same_containers(a, b) -> bool:
             return False
         for ma, mb in zip(ca.meshes, cb.meshes):
             for x, y in ((ma.points, mb.points), (ma.triangles, mb.triangles)):
-                if not np.array_equal(x, y):
+                if x is not y and not np.array_equal(x, y):      # the same arrays: a kept static gprim
                     return False
         for sa, sb in zip(ca.spheres, cb.spheres):
             if sa.radius != sb.radius or not np.array_equal(sa.matrix, sb.matrix):
@@ -100,7 +104,7 @@ def _renderer(job: Job, time) -> tuple[Renderer, dict]:
     if _state.get('time') == time and _state.get('renderer') is not None:
         return _state['renderer'], {'load_seconds': 0.0, 'build_seconds': 0.0, 'reused': 'frame'}
     t0 = _time.perf_counter()
-    desc = read_stage(stage, time=time, camera_path=job.camera, options=job.options)
+    desc = read_stage(stage, time=time, camera_path=job.camera, options=job.options, geometry=_state['geometry'])
     load = _time.perf_counter() - t0
     previous = _state.get('renderer')
     reuse = previous if job.reuse and previous is not None and same_containers(_state['desc'], desc) else None
@@ -138,12 +142,19 @@ def _run(what: str, frame, fn):
         return out
 
 
-def probe(job: Job, frame, time) -> dict:
+def probe(job: Job, frame, time, window: bool = False) -> dict:
     """Read the frame's stage, resolve the options and load (or compile) the kernels: the shot's
-    first task, so that the workers after it find the kernels in the cache."""
+    first task, so that the workers after it find the kernels in the cache.  `window`: the kernels
+    of tiles (`window.py`) too (once the shot is known to be tiled)."""
     def work():
         r, cost = _renderer(job, time)
         o = r.desc.options                                      # resolved by the reader
+        t0 = _time.perf_counter()
+        if window:
+            from .window import counters_for, kernel_tiles, render_window
+            render_window(r, o, r.camera(o), kernel_tiles((0, 0, min(o.width, 8), min(o.height, 8)), o.width, o.height),
+                          0, 0, np.zeros((o.height, o.width, 3)), counters_for(o.width, o.height))
+            return {'options': o, 'kernel_seconds': _time.perf_counter() - t0, **cost}
         film = Film(o.width, o.height)
         res = r.render(o, film=film, should_stop=lambda: True)     # no samples: the kernels only
         return {'options': o, 'warnings': list(r.desc.warnings), 'kernel_seconds': res.stats.kernel_seconds,
@@ -151,22 +162,31 @@ def probe(job: Job, frame, time) -> dict:
     return _run('reading the scene', frame, work)
 
 
-def render_frame(job: Job, frame, time, options: RenderOptions, should_stop=lambda: False) -> dict:
-    """All samples of a frame: its image (float32, h x w x 3) exactly as one process renders it."""
+def _no_report(samples, rays):
+    pass
+
+
+def render_frame(job: Job, frame, time, options: RenderOptions, should_stop=lambda: False,
+                 report=_no_report) -> dict:
+    """All samples of a frame: its image (float32, h x w x 3) exactly as one process renders it.
+    `report(samples, rays)` after every pass (events.py)."""
     def work():
         r, cost = _renderer(job, time)
-        res = r.render(options, should_stop=should_stop)
+
+        def on_pass(res):
+            report(res.options.width * res.options.height * res.film.spp, res.stats.rays)
+        res = r.render(options, should_stop=should_stop, on_pass=on_pass)
         return {'image': res.image, 'spp': res.film.spp, 'rays': res.stats.rays, 'interrupted': res.interrupted,
                 'render_seconds': res.stats.seconds, **cost}
     return _run('rendering', frame, work)
 
 
-def render_samples(job: Job, frame, time, options: RenderOptions, s0: int, s1: int) -> dict:
+def render_samples(job: Job, frame, time, options: RenderOptions, s0: int, s1: int, report=_no_report) -> dict:
     """Samples [s0, s1) of a frame, one film per sample: float64 (s1 - s0, h, w, 3).
 
     A local render adds each pixel's samples to its sum one by one in sample order, so partial sums
     of sample ranges would not add up to the same bits; single samples, added in order by the
-    client (`assembly.FrameAssembly`), do."""
+    client (`plan.FrameAssembly`), do."""
     def work():
         r, cost = _renderer(job, time)
         o = options
@@ -181,6 +201,66 @@ def render_samples(job: Job, frame, time, options: RenderOptions, s0: int, s1: i
                 raise RenderError(f'sample {s} was not rendered')
             out[s - s0] = film.sum
             rays += res.stats.rays
+            report(o.width * o.height * (s + 1 - s0), rays)
         return {'samples': out, 's0': s0, 's1': s1, 'rays': rays,
                 'render_seconds': _time.perf_counter() - t0, **cost}
+    return _run('rendering', frame, work)
+
+
+def render_tile(job: Job, frame, time, options: RenderOptions, box, s0: int, s1: int, should_stop=lambda: False,
+                report=_no_report) -> dict:
+    """Samples [s0, s1) of the pixels of `box` = (x0, y0, x1, y1), a rectangle of the kernels' tiles
+    (`window.py`): with every sample (s0 = 0, s1 = spp), its float32 pixels (y1 - y0, x1 - x0, 3) as
+    in the frame's image; else one float64 film of the box per sample (s1 - s0, y1 - y0, x1 - x0, 3),
+    as `render_samples`."""
+    from ...kernel.integrator import RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW
+    from ...options import resolve
+    from .window import aligned, counters_for, kernel_tiles, render_window
+
+    def work():
+        r, cost = _renderer(job, time)
+        o = resolve(options, r.desc.settings)
+        if not aligned(box, o.width, o.height) or not 0 <= s0 < s1 <= o.spp:
+            raise RenderError(f'tile {box}, samples [{s0}, {s1}) do not fit a {o.width}x{o.height} frame of '
+                              f'{o.spp} spp')
+        camera = r.camera(o)
+        tiles = kernel_tiles(box, o.width, o.height)
+        accum = np.zeros((o.height, o.width, 3))             # the kernels index the frame's pixels
+        counters = counters_for(o.width, o.height)
+        x0, y0, x1, y1 = box
+        region = accum[y0:y1, x0:x1]
+        pixels = (x1 - x0) * (y1 - y0)
+
+        def rays():
+            total = counters.sum(0)
+            return int(total[RAYS_CAMERA] + total[RAYS_SHADOW] + total[RAYS_SECONDARY])
+        render_window(r, o, camera, tiles, s0, s0, accum, counters)          # loads the kernels
+        t0 = _time.perf_counter()
+        whole = s0 == 0 and s1 == o.spp
+        out = None if whole else np.empty((s1 - s0, y1 - y0, x1 - x0, 3), np.float64)
+        s, step = s0, 1
+        while s < s1:
+            if should_stop():
+                return {'interrupted': True, 'rays': rays(), **cost}
+            e = min(s1, s + step)
+            if whole:                                # passes as Renderer.render's: about pass_seconds each
+                tp = _time.perf_counter()
+                render_window(r, o, camera, tiles, s, e, accum, counters)
+                step = max(1, int(o.pass_seconds / max((_time.perf_counter() - tp) / (e - s), 1e-9)))
+            else:                                    # one sample at a time, each from zero
+                region[...] = 0.0
+                render_window(r, o, camera, tiles, s, s + 1, accum, counters)
+                out[s - s0] = region
+                e = s + 1
+            s = e
+            report(pixels * (s - s0), rays())
+        res = {'rays': rays(), 'render_seconds': _time.perf_counter() - t0, 'box': box, **cost}
+        if whole:
+            film = Film(x1 - x0, y1 - y0)            # the frame's Film.image() of these pixels
+            film.sum[...] = region
+            film.count[...] = o.spp
+            res['image'] = film.image()
+        else:
+            res.update(samples=out, s0=s0, s1=s1)
+        return res
     return _run('rendering', frame, work)
