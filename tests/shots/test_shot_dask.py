@@ -169,7 +169,8 @@ BIG = dict(width=256, height=192, spp=2)                 # 49 152 pixels: 12 til
 
 @pytest.fixture(scope='module')
 def big_reference(shot_path):
-    return render(read_stage(shot_path, time=2), RenderOptions(seed=3, **BIG)).image
+    o = RenderOptions(seed=3, **BIG)
+    return render(read_stage(shot_path, time=2, options=o), o).image
 
 
 def test_a_large_frame_is_tiled_over_two_workers_bit_identical(client, shot_path, big_reference, tmp_path):

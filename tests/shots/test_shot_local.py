@@ -120,7 +120,7 @@ def test_prototypes_are_reused_only_when_their_geometry_is_the_same(shot_path):
 
 def test_tiles_in_this_process_with_the_cook_integrator_are_bit_identical(shot_path, tmp_path):
     o = RenderOptions(seed=3, integrator='cook', width=72, height=40)     # tiles end at the image's edges
-    ref = render(read_stage(shot_path, time=3), o).image
+    ref = render(read_stage(shot_path, time=3, options=o), o).image
     res = run_shot(Job(shot='', scene=shot_path, options=o), [3], str(tmp_path / 'c.exr'), tiles=3)
     assert res.tiles == 3 and res.tasks == 3
     assert same_bits(tmp_path / 'c.exr', ref)
