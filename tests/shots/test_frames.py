@@ -103,12 +103,13 @@ def test_split_prefers_tiles_and_adds_sample_ranges_when_tiles_are_too_few():
     assert split_for(1, 1, 1920, 1080, 16, cluster=False) == Split((None,), 1)
     s = split_for(1, 2, 1920, 1080, 16)                                   # one large frame, 2 workers
     assert s.ranges == 1 and len(s.tiles) == 4                            # tiles only: no extra bytes
-    s = split_for(1, 8, 320, 240, 16)                                     # 16 pieces wanted, 18 tiles of 64x64 fit
-    assert s.ranges == 1 and len(s.tiles) >= 16
+    s = split_for(1, 2, 1280, 720, 16)                                    # 4 wanted, 56 tiles of 128x128 fit
+    assert s.ranges == 1 and len(s.tiles) == 4
+    s = split_for(1, 16, 1280, 720, 16)                                   # 32 wanted
+    assert s.ranges == 1 and len(s.tiles) >= 32
     assert min((x1 - x0) * (y1 - y0) for x0, y0, x1, y1 in s.tiles) >= MIN_TILE_PIXELS * 0.75
-    s = split_for(1, 64, 320, 240, 16)                                    # 128 wanted: tiles x sample ranges
-    assert 320 * 240 // MIN_TILE_PIXELS <= len(s.tiles) < 32 and s.ranges == -(-128 // len(s.tiles))
-    assert s.pieces >= 128
+    s = split_for(1, 8, 320, 240, 16)                                     # 16 wanted, 4 tiles: x 4 sample ranges
+    assert len(s.tiles) == 320 * 240 // MIN_TILE_PIXELS == 4 and s.ranges == 4
     assert split_for(1, 2, 32, 24, 16) == Split((None,), 4)               # too small to tile: sample ranges
     assert split_for(1, 2, 4096, 4096, 64).ranges == 1                    # too many bytes of single samples
 

@@ -164,7 +164,7 @@ def test_a_worker_that_cannot_read_the_scene_is_named(scheduler, tmp_path):
     assert os.listdir(tmp_path) == []
 
 
-BIG = dict(width=256, height=192, spp=2)                 # 49 152 pixels: 12 tiles of 64x64 fit
+BIG = dict(width=384, height=256, spp=2)                 # 98 304 pixels: 6 tiles of 128x128 fit
 
 
 @pytest.fixture(scope='module')
@@ -180,8 +180,8 @@ def test_a_large_frame_is_tiled_over_two_workers_bit_identical(client, shot_path
     assert len(res.by_worker) == 2
     assert same_bits(tmp_path / 'big.exr', big_reference)
     # back: each tile's float32 pixels, no more than the whole frame's
-    assert res.bytes_from_worker == [128 * 96 * 12] * 4                # 128x96 tiles
-    assert sum(res.bytes_from_worker) == 256 * 192 * 12
+    assert res.bytes_from_worker == [192 * 128 * 12] * 4               # 192x128 tiles
+    assert sum(res.bytes_from_worker) == 384 * 256 * 12
     assert all(b < 4096 for b in res.bytes_to_worker)
 
 
@@ -191,7 +191,7 @@ def test_tiles_times_sample_ranges_are_bit_identical(client, shot_path, big_refe
     assert (res.tiles, res.split, res.tasks) == (6, 2, 12)
     assert same_bits(tmp_path / 'big.exr', big_reference)
     # back: one float64 film of the tile per sample (1 sample per range here)
-    assert sum(res.bytes_from_worker) == 256 * 192 * 24 * 2
+    assert sum(res.bytes_from_worker) == 384 * 256 * 24 * 2
 
 
 def test_progress_moves_with_samples_while_a_frame_renders(client, shot_path, tmp_path):

@@ -4,7 +4,7 @@ Frames are tasks.  When there are fewer frames than workers can share (`pieces`:
 per worker), every frame is also cut into pieces so that every worker has work:
 
 * **tiles** first - rectangles of the kernels' 8x8 pixel tiles (`window.py` renders one with the
-  same bits as the whole frame) of at least `MIN_TILE_PIXELS` pixels each.  A tile with all its
+  same bits as the whole frame) of about `MIN_TILE_PIXELS` pixels or more each.  A tile with all its
   samples returns its float32 pixels: a tiled frame costs no more bytes than a whole one.
 * then **sample ranges** of each tile (or of the whole frame when it is too small to tile), when
   tiles alone are too few.  A sample-range task returns one film per sample (`worker.render_samples`
@@ -29,9 +29,11 @@ from ..film import Film
 from .window import TILE
 
 MAX_SPLIT_BYTES = 256 << 20          # per frame: the single-sample films of all its samples
-# benchmarks/bench_shot.py `tiles`: a 64x64 tile (64 kernel tiles, 32 per thread of a 2-core worker)
-# renders at the whole frame's time per sample; smaller ones lose to the per-task and per-pass costs
-MIN_TILE_PIXELS = 64 * 64
+# benchmarks/bench_shot.py `tiles` (512x384 4 spp, path; RESULTS.md "Shots and Dask"): time per pixel
+# sample of a tile task against the whole frame's, 2 threads / 1 thread: 16x16 5.8x / 1.19x, 32x32
+# 1.51x / 1.04x, 64x64 1.28x / 0.99x, 128x128 1.06x / 0.98x (passes over few kernel tiles leave
+# threads idle): the smallest tile within 10 % of the whole frame on both
+MIN_TILE_PIXELS = 128 * 128
 MAX_RESULT_BYTES = 64 << 20          # per task result on a cluster (a 2336x2336 float32 RGB tile)
 Box = tuple                          # (x0, y0, x1, y1) pixels, [x0, x1) x [y0, y1)
 
