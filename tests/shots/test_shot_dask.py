@@ -50,21 +50,23 @@ def test_one_frame_split_over_two_workers_is_bit_identical(client, shot_path, re
     assert same_bits(tmp_path / 'one.exr', reference(3))
 
 
+def _kill_a_worker_running(client, prefix, killed):
+    """SIGKILL the process of the first worker seen running a task whose key starts with `prefix`."""
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not killed:
+        for addr, keys in client.processing().items():
+            if any(str(k).startswith(prefix) for k in keys):
+                pid = client.run(os.getpid, workers=[addr])[addr]
+                os.kill(pid, signal.SIGKILL)
+                killed.update(addr=addr, pid=pid, keys=list(keys))
+                return
+        time.sleep(0.005)
+
+
 def test_a_worker_killed_mid_render_costs_only_its_tasks(client, shot_path, tmp_path):
     spp = 96
     killed = {}
-
-    def killer():
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not killed:
-            for addr, keys in client.processing().items():
-                if any(str(k).startswith('rtc-frame-') for k in keys):
-                    pid = client.run(os.getpid, workers=[addr])[addr]
-                    os.kill(pid, signal.SIGKILL)
-                    killed.update(addr=addr, pid=pid, keys=list(keys))
-                    return
-            time.sleep(0.005)
-    t = threading.Thread(target=killer)
+    t = threading.Thread(target=_kill_a_worker_running, args=(client, 'rtc-frame-', killed))
     t.start()
     res = run_shot(_job(shot_path, spp), [1, 2, 3, 4], str(tmp_path / 'k.####.exr'), client=client)
     t.join()
@@ -203,3 +205,16 @@ def test_progress_moves_with_samples_while_a_frame_renders(client, shot_path, tm
     during = [s for f, s, r in seen if f == 0 and 0 < s < total]      # reported by the running task
     assert during and during == sorted(during)
     assert seen[-1][:2] == (1, total) and seen[-1][2] == res.rays
+
+
+def test_a_worker_killed_while_rendering_a_tile_costs_only_that_tile(client, shot_path, tmp_path):
+    o = RenderOptions(seed=3, width=384, height=256, spp=16)
+    killed = {}
+    t = threading.Thread(target=_kill_a_worker_running, args=(client, 'rtc-frame-2-tile-', killed))
+    t.start()
+    res = run_shot(Job(shot='', scene=shot_path, options=o, threads=1), [2], str(tmp_path / 't.exr'), client=client)
+    t.join()
+    assert killed, 'no tile was seen rendering'
+    assert res.tiles == 4 and res.written == [2]
+    assert same_bits(tmp_path / 't.exr', render(read_stage(shot_path, time=2, options=o), o).image)
+    client.wait_for_workers(2, timeout=120)              # the nanny restarted it (for the next tests)

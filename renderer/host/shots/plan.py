@@ -30,9 +30,10 @@ from .window import TILE
 
 MAX_SPLIT_BYTES = 256 << 20          # per frame: the single-sample films of all its samples
 # benchmarks/bench_shot.py `tiles` (512x384 4 spp, path; RESULTS.md "Shots and Dask"): time per pixel
-# sample of a tile task against the whole frame's, 2 threads / 1 thread: 16x16 5.8x / 1.19x, 32x32
-# 1.51x / 1.04x, 64x64 1.28x / 0.99x, 128x128 1.06x / 0.98x (passes over few kernel tiles leave
-# threads idle): the smallest tile within 10 % of the whole frame on both
+# sample of a tile task against the whole frame's, 2 threads / 1 thread, two runs: 16x16 5.8-4.3x /
+# 1.0-1.2x, 32x32 1.5-2.4x / 0.9-1.0x, 64x64 1.28-1.35x / 0.95-0.99x, 128x128 1.06-1.09x / 0.91-0.98x
+# (passes over few kernel tiles leave threads idle): the smallest tile within 10 % of the whole
+# frame in both
 MIN_TILE_PIXELS = 128 * 128
 MAX_RESULT_BYTES = 64 << 20          # per task result on a cluster (a 2336x2336 float32 RGB tile)
 Box = tuple                          # (x0, y0, x1, y1) pixels, [x0, x1) x [y0, y1)
