@@ -354,6 +354,19 @@ def _run_dask(shot: _Shot, tasks: list[Task], client) -> None:
         shot.result.events = shot.progress.tally.events
 
 
+def _probe(client, job, first, result, window: bool = False) -> dict:
+    """`worker.probe` of the first frame, here or as the shot's first Dask task (Ctrl-C: interrupted)."""
+    try:
+        if client is None:
+            return worker.probe(job, first, first, window=window)
+        key = f'rtc-probe-{"tiles-" if window else ""}{job.shot}'
+        return client.submit(worker.probe, job, first, first, window=window, key=key, pure=False).result()
+    except worker.TaskFailed as e:
+        raise ShotError(str(e)) from None
+    except KeyboardInterrupt:
+        raise ShotInterrupted(result) from None
+
+
 def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, scheduler: str | None = None,
              client=None, resume: bool = False, quiet: bool = False, split: int | None = None,
              tiles: int | None = None, echo=lambda message: None, watch=None) -> ShotResult:
@@ -376,11 +389,7 @@ def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, sch
             if result.dashboard:
                 echo(f'rtc: Dask dashboard at {result.dashboard}')
         first = frames[0]
-        try:
-            info = (worker.probe(job, first, first) if client is None else
-                    client.submit(worker.probe, job, first, first, key=f'rtc-probe-{job.shot}', pure=False).result())
-        except worker.TaskFailed as e:
-            raise ShotError(str(e)) from None
+        info = _probe(client, job, first, result)
         o = info['options']
         result.probe_seconds = _time.perf_counter() - t0
         result.width, result.height, result.spp, result.warnings = o.width, o.height, o.spp, info['warnings']
@@ -395,12 +404,7 @@ def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, sch
         tasks = plan(todo, o.spp, how)
         result.split, result.tiles, result.tasks = how.ranges, len(how.tiles), len(tasks)
         if how.tiles != (None,) and todo:               # the tiles' kernels, loaded (or compiled) once
-            try:
-                (worker.probe(job, first, first, window=True) if client is None else
-                 client.submit(worker.probe, job, first, first, window=True, key=f'rtc-probe-tiles-{job.shot}',
-                               pure=False).result())
-            except worker.TaskFailed as e:
-                raise ShotError(str(e)) from None
+            _probe(client, job, first, result, window=True)
         progress = _Progress(len(frames), len(todo) * o.width * o.height * o.spp, quiet, watch)
         progress.frame_done(len(result.skipped))
         shot = _Shot(job, todo, pattern, result, progress, o, how)
