@@ -190,7 +190,6 @@ def bench_tiles(d, rounds):
     for threads in (2, 1):
         job = Job(shot=f'tiles{threads}', scene=path, options=RenderOptions(width=w, height=h, spp=spp), threads=threads)
         o = worker.probe(job, 1, 1)['options']
-        worker.probe(job, 1, 1, window=True)
         whole, tiles = [], {n: ([], []) for n in sizes}
         for _ in range(rounds):
             r = worker.render_frame(job, 1, 1, o)

@@ -5,7 +5,7 @@ import pytest
 from rtc.renderer.host.shots.frames import ShotError, check_pattern, output_name, parse_frames, parse_time
 from rtc.renderer.host.shots.plan import (MAX_RESULT_BYTES, MIN_TILE_PIXELS, FrameAssembly, Split, Task, grid, plan,
                                          split_count, split_for)
-from rtc.renderer.host.shots.window import aligned
+from rtc.renderer.host.render import check_window
 
 
 def test_frame_ranges_include_both_ends_and_step():
@@ -89,7 +89,7 @@ def test_tiles_lie_on_the_kernel_grid_and_cover_the_image_once():
     for w, h, n in ((320, 240, 4), (1920, 1080, 9), (100, 37, 5), (33, 9, 50), (8, 8, 3), (4000, 3000, 1)):
         boxes = grid(w, h, n)
         assert len(boxes) >= min(n, -(-w // 8) * -(-h // 8)), (w, h, n)
-        assert all(aligned(b, w, h) for b in boxes), (w, h, n)
+        assert all(check_window(b, w, h) == b for b in boxes), (w, h, n)      # no RenderError
         cover = np.zeros((h, w), int)
         for x0, y0, x1, y1 in boxes:
             cover[y0:y1, x0:x1] += 1

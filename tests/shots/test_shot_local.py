@@ -129,6 +129,27 @@ def test_tiles_in_this_process_with_the_cook_integrator_are_bit_identical(shot_p
     assert same_bits(tmp_path / 'd.exr', ref)
 
 
+def test_a_tile_task_holds_and_returns_its_window_only(shot_path):
+    """worker.render_tile renders `Renderer.render(window=)`: the tile's pixels (all samples) or one
+    film of the tile per sample, the frame's values there; a box off the 8-pixel grid, or samples
+    outside [0, spp), are refused naming the tile."""
+    from rtc.renderer.host.shots import worker
+    o = RenderOptions(seed=3, integrator='cook', width=72, height=40, spp=3)
+    job = Job(shot='tile-task', scene=shot_path, options=o)
+    try:
+        whole = worker.render_frame(job, 3, 3, o)['image']
+        t = worker.render_tile(job, 3, 3, o, (16, 8, 72, 40), 0, 3)
+        assert t['image'].shape == (32, 56, 3) and t['box'] == (16, 8, 72, 40)
+        assert t['image'].tobytes() == whole[8:40, 16:72].tobytes()
+        part = worker.render_tile(job, 3, 3, o, (16, 8, 72, 40), 1, 3)['samples']
+        assert part.shape == (2, 32, 56, 3) and part.dtype == np.float64
+        for box, s0, s1 in (((4, 8, 72, 40), 0, 3), ((16, 8, 70, 40), 0, 3), ((16, 8, 72, 40), 2, 4)):
+            with pytest.raises(worker.TaskFailed, match=r'tile \(.*\), samples \[.*\) do not fit a 72x40 frame'):
+                worker.render_tile(job, 3, 3, o, box, s0, s1)
+    finally:
+        worker.close()
+
+
 def test_progress_in_this_process_counts_every_sample(shot_path, tmp_path):
     seen = []
     res = run_shot(_job(shot_path), [1, 2], str(tmp_path / 'p.####.exr'),

@@ -2,7 +2,6 @@
 
     frames.py   frame ranges ('1:24', '1:100:5') and output names ('shot.####.exr', 'shot.%04d.exr')
     plan.py     frames, tiles and sample ranges as tasks; split frames put back bit for bit
-    window.py   a tile of a frame rendered alone with the kernels' tile functions (same bits)
     worker.py   what a task does: the stage at a time code (static gprims kept), the scene
                 (prototype BVHs reused), a render of a frame, a sample range or a tile
     events.py   progress of running tasks: Dask events from the workers, a tally on the client

@@ -3,9 +3,10 @@
 Frames are tasks.  When there are fewer frames than workers can share (`pieces`: about two tasks
 per worker), every frame is also cut into pieces so that every worker has work:
 
-* **tiles** first - rectangles of the kernels' 8x8 pixel tiles (`window.py` renders one with the
-  same bits as the whole frame) of about `MIN_TILE_PIXELS` pixels or more each.  A tile with all its
-  samples returns its float32 pixels: a tiled frame costs no more bytes than a whole one.
+* **tiles** first - rectangles of the kernels' 8x8 pixel tiles (`Renderer.render(window=)` renders
+  one with the same bits as the whole frame) of about `MIN_TILE_PIXELS` pixels or more each.  A
+  tile with all its samples returns its float32 pixels: a tiled frame costs no more bytes than a
+  whole one.
 * then **sample ranges** of each tile (or of the whole frame when it is too small to tile), when
   tiles alone are too few.  A sample-range task returns one film per sample (`worker.render_samples`
   / `worker.render_tile`), because a local render adds each pixel's samples to its sum one by one, in
@@ -26,7 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..film import Film
-from .window import TILE
+from ...kernel.tiles import TILE
 
 MAX_SPLIT_BYTES = 256 << 20          # per frame: the single-sample films of all its samples
 # benchmarks/bench_shot.py `tiles` (512x384 4 spp, path; RESULTS.md "Shots and Dask"): time per pixel

@@ -169,7 +169,7 @@ def _already_written(path: str, o) -> bool:
 @contextlib.contextmanager
 def cluster(workers: int | None = None, scheduler: str | None = None, quiet: bool = False):
     """A Dask client: of an existing scheduler at `scheduler`, or of a local cluster of `workers`
-    processes (one thread each: a render uses the process's cores through numba)."""
+    processes (one thread each: a render uses the process's cores through its own render threads)."""
     from distributed import Client, LocalCluster
     if scheduler:
         try:
@@ -224,7 +224,8 @@ def _dashboard(client, remote: bool) -> str | None:
 
 
 def _thread_split(client) -> int:
-    """Numba threads per render on a local cluster: the machine's cores shared by its workers."""
+    """Render threads per render (`Renderer(threads=)`) on a local cluster: the machine's cores shared by
+    its workers."""
     n = len(client.scheduler_info()['workers'])
     return max(1, (len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count() or 1) // n)
 
@@ -354,13 +355,12 @@ def _run_dask(shot: _Shot, tasks: list[Task], client) -> None:
         shot.result.events = shot.progress.tally.events
 
 
-def _probe(client, job, first, result, window: bool = False) -> dict:
+def _probe(client, job, first, result) -> dict:
     """`worker.probe` of the first frame, here or as the shot's first Dask task (Ctrl-C: interrupted)."""
     try:
         if client is None:
-            return worker.probe(job, first, first, window=window)
-        key = f'rtc-probe-{"tiles-" if window else ""}{job.shot}'
-        return client.submit(worker.probe, job, first, first, window=window, key=key, pure=False).result()
+            return worker.probe(job, first, first)
+        return client.submit(worker.probe, job, first, first, key=f'rtc-probe-{job.shot}', pure=False).result()
     except worker.TaskFailed as e:
         raise ShotError(str(e)) from None
     except KeyboardInterrupt:
@@ -403,8 +403,6 @@ def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, sch
             how = Split(how.tiles, split)
         tasks = plan(todo, o.spp, how)
         result.split, result.tiles, result.tasks = how.ranges, len(how.tiles), len(tasks)
-        if how.tiles != (None,) and todo:               # the tiles' kernels, loaded (or compiled) once
-            _probe(client, job, first, result, window=True)
         progress = _Progress(len(frames), len(todo) * o.width * o.height * o.spp, quiet, watch)
         progress.frame_done(len(result.skipped))
         shot = _Shot(job, todo, pattern, result, progress, o, how)

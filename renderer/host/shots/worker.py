@@ -12,23 +12,23 @@ the open stage of the shot and the last frame's Renderer:
   its prototype BVHs and builds only the top level (`build(..., reuse=)`): only placements, the
   camera, lights and materials moved.
 
-Renders inside one process run one at a time (a lock): numba's parallel kernels must not be
-launched from two threads at once, and each render already uses the process's cores.
+Renders inside one process run one at a time (a lock): each render already uses the process's
+cores (`job.threads` render threads).
 """
 from __future__ import annotations
 
 import os
 import threading
 import time as _time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Callable, Optional
 
 import numpy as np
 
 from ...errors import RenderError, SceneError
-from ...options import RenderOptions
+from ...options import RenderOptions, resolve
 from ..film import Film
-from ..render import Renderer
+from ..render import Renderer, check_window
 
 
 @dataclass(frozen=True)
@@ -39,7 +39,7 @@ class Job:
     options: RenderOptions             # as asked: resolved against the stage's render settings per frame
     opener: Optional[Callable] = None  # path -> Usd.Stage (e.g. the course XML compiler); None: USD
     camera: Optional[str] = None
-    threads: Optional[int] = None      # numba / Embree threads of a render (None: all)
+    threads: Optional[int] = None      # render / Embree threads of a render (None: numba's thread count)
     reuse: bool = True                 # reuse prototype BVHs across frames when only placements move
     reuse_reads: bool = True           # convert static gprims once per shot (usd.geometry_cache)
 
@@ -142,19 +142,13 @@ def _run(what: str, frame, fn):
         return out
 
 
-def probe(job: Job, frame, time, window: bool = False) -> dict:
+def probe(job: Job, frame, time) -> dict:
     """Read the frame's stage, resolve the options and load (or compile) the kernels: the shot's
-    first task, so that the workers after it find the kernels in the cache.  `window`: the kernels
-    of tiles (`window.py`) too (once the shot is known to be tiled)."""
+    first task, so that the workers after it find the kernels in the cache.  (A tile task runs the
+    same kernels: a window is a field of the pass's parameters.)"""
     def work():
         r, cost = _renderer(job, time)
         o = r.desc.options                                      # resolved by the reader
-        t0 = _time.perf_counter()
-        if window:
-            from .window import counters_for, kernel_tiles, render_window
-            render_window(r, o, r.camera(o), kernel_tiles((0, 0, min(o.width, 8), min(o.height, 8)), o.width, o.height),
-                          0, 0, np.zeros((o.height, o.width, 3)), counters_for(o.width, o.height))
-            return {'options': o, 'kernel_seconds': _time.perf_counter() - t0, **cost}
         film = Film(o.width, o.height)
         res = r.render(o, film=film, should_stop=lambda: True)     # no samples: the kernels only
         return {'options': o, 'warnings': list(r.desc.warnings), 'kernel_seconds': res.stats.kernel_seconds,
@@ -166,18 +160,44 @@ def _no_report(samples, rays):
     pass
 
 
+def _pixels(r: Renderer, o: RenderOptions, box, should_stop, report) -> dict:
+    """All samples of the pixels of `box` (None: the frame), as `Renderer.render` gives them: float32
+    (h, w, 3), the frame's image there bit for bit."""
+    def on_pass(res):
+        report(res.film.width * res.film.height * res.film.spp, res.stats.rays)
+    res = r.render(o, should_stop=should_stop, on_pass=on_pass, window=box)
+    return {'image': res.image, 'spp': res.film.spp, 'rays': res.stats.rays, 'interrupted': res.interrupted,
+            'render_seconds': res.stats.seconds}
+
+
+def _single_samples(r: Renderer, o: RenderOptions, box, s0: int, s1: int, report) -> dict:
+    """Samples [s0, s1) of the pixels of `box` (None: the frame), one film per sample: float64
+    (s1 - s0, h, w, 3).  Each is a render of one pass (film continued at sample s, stopped after it),
+    its sums starting from zero."""
+    x0, y0, x1, y1 = check_window(box, o.width, o.height)
+    w, h = x1 - x0, y1 - y0
+    out = np.empty((s1 - s0, h, w, 3), np.float64)
+    rays = 0
+    t0 = _time.perf_counter()
+    for s in range(s0, s1):
+        film = Film(w, h)
+        film.count[...] = s                      # the render continues at sample s ...
+        res = r.render(o, film=film, should_stop=lambda: film.count[0, 0] > s, window=box)   # ... for one pass
+        if film.count[0, 0] != s + 1:
+            raise RenderError(f'sample {s} was not rendered')
+        out[s - s0] = film.sum
+        rays += res.stats.rays
+        report(w * h * (s + 1 - s0), rays)
+    return {'samples': out, 's0': s0, 's1': s1, 'rays': rays, 'render_seconds': _time.perf_counter() - t0}
+
+
 def render_frame(job: Job, frame, time, options: RenderOptions, should_stop=lambda: False,
                  report=_no_report) -> dict:
     """All samples of a frame: its image (float32, h x w x 3) exactly as one process renders it.
     `report(samples, rays)` after every pass (events.py)."""
     def work():
         r, cost = _renderer(job, time)
-
-        def on_pass(res):
-            report(res.options.width * res.options.height * res.film.spp, res.stats.rays)
-        res = r.render(options, should_stop=should_stop, on_pass=on_pass)
-        return {'image': res.image, 'spp': res.film.spp, 'rays': res.stats.rays, 'interrupted': res.interrupted,
-                'render_seconds': res.stats.seconds, **cost}
+        return {**_pixels(r, options, None, should_stop, report), **cost}
     return _run('rendering', frame, work)
 
 
@@ -189,78 +209,31 @@ def render_samples(job: Job, frame, time, options: RenderOptions, s0: int, s1: i
     client (`plan.FrameAssembly`), do."""
     def work():
         r, cost = _renderer(job, time)
-        o = options
-        out = np.empty((s1 - s0, o.height, o.width, 3), np.float64)
-        rays = 0
-        t0 = _time.perf_counter()
-        for s in range(s0, s1):
-            film = Film(o.width, o.height)
-            film.count[...] = s                      # the render continues at sample s ...
-            res = r.render(replace(o), film=film, should_stop=lambda: film.count[0, 0] > s)   # ... for one pass
-            if film.count[0, 0] != s + 1:
-                raise RenderError(f'sample {s} was not rendered')
-            out[s - s0] = film.sum
-            rays += res.stats.rays
-            report(o.width * o.height * (s + 1 - s0), rays)
-        return {'samples': out, 's0': s0, 's1': s1, 'rays': rays,
-                'render_seconds': _time.perf_counter() - t0, **cost}
+        return {**_single_samples(r, resolve(options, r.desc.settings), None, s0, s1, report), **cost}
     return _run('rendering', frame, work)
 
 
 def render_tile(job: Job, frame, time, options: RenderOptions, box, s0: int, s1: int, should_stop=lambda: False,
                 report=_no_report) -> dict:
-    """Samples [s0, s1) of the pixels of `box` = (x0, y0, x1, y1), a rectangle of the kernels' tiles
-    (`window.py`): with every sample (s0 = 0, s1 = spp), its float32 pixels (y1 - y0, x1 - x0, 3) as
-    in the frame's image; else one float64 film of the box per sample (s1 - s0, y1 - y0, x1 - x0, 3),
-    as `render_samples`."""
-    from ...kernel.integrator import RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW
-    from ...options import resolve
-    from .window import aligned, counters_for, kernel_tiles, render_window
-
+    """Samples [s0, s1) of the pixels of `box` = (x0, y0, x1, y1), a window of the kernels' 8x8 tiles
+    (`Renderer.render(window=)`: the worker holds the window's pixels only): with every sample
+    (s0 = 0, s1 = spp), its float32 pixels (y1 - y0, x1 - x0, 3) as in the frame's image; else one
+    float64 film of the box per sample (s1 - s0, y1 - y0, x1 - x0, 3), as `render_samples`."""
     def work():
         r, cost = _renderer(job, time)
         o = resolve(options, r.desc.settings)
-        if not aligned(box, o.width, o.height) or not 0 <= s0 < s1 <= o.spp:
+        try:
+            check_window(box, o.width, o.height)
+        except RenderError:
+            ok = False
+        else:
+            ok = 0 <= s0 < s1 <= o.spp
+        if not ok:
             raise RenderError(f'tile {box}, samples [{s0}, {s1}) do not fit a {o.width}x{o.height} frame of '
                               f'{o.spp} spp')
-        camera = r.camera(o)
-        tiles = kernel_tiles(box, o.width, o.height)
-        accum = np.zeros((o.height, o.width, 3))             # the kernels index the frame's pixels
-        counters = counters_for(o.width, o.height)
-        x0, y0, x1, y1 = box
-        region = accum[y0:y1, x0:x1]
-        pixels = (x1 - x0) * (y1 - y0)
-
-        def rays():
-            total = counters.sum(0)
-            return int(total[RAYS_CAMERA] + total[RAYS_SHADOW] + total[RAYS_SECONDARY])
-        render_window(r, o, camera, tiles, s0, s0, accum, counters)          # loads the kernels
-        t0 = _time.perf_counter()
-        whole = s0 == 0 and s1 == o.spp
-        out = None if whole else np.empty((s1 - s0, y1 - y0, x1 - x0, 3), np.float64)
-        s, step = s0, 1
-        while s < s1:
-            if should_stop():
-                return {'interrupted': True, 'rays': rays(), **cost}
-            e = min(s1, s + step)
-            if whole:                                # passes as Renderer.render's: about pass_seconds each
-                tp = _time.perf_counter()
-                render_window(r, o, camera, tiles, s, e, accum, counters)
-                step = max(1, int(o.pass_seconds / max((_time.perf_counter() - tp) / (e - s), 1e-9)))
-            else:                                    # one sample at a time, each from zero
-                region[...] = 0.0
-                render_window(r, o, camera, tiles, s, s + 1, accum, counters)
-                out[s - s0] = region
-                e = s + 1
-            s = e
-            report(pixels * (s - s0), rays())
-        res = {'rays': rays(), 'render_seconds': _time.perf_counter() - t0, 'box': box, **cost}
-        if whole:
-            film = Film(x1 - x0, y1 - y0)            # the frame's Film.image() of these pixels
-            film.sum[...] = region
-            film.count[...] = o.spp
-            res['image'] = film.image()
+        if s0 == 0 and s1 == o.spp:
+            out = _pixels(r, o, box, should_stop, report)
         else:
-            res.update(samples=out, s0=s0, s1=s1)
-        return res
+            out = _single_samples(r, o, box, s0, s1, report)
+        return {**out, 'box': box, **cost}
     return _run('rendering', frame, work)
