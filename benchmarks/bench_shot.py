@@ -16,7 +16,7 @@ reuse     read + build per frame, in this process, on two shots: one 300 000-tri
           without either; alternating rounds.
 tiles     time per pixel sample of a tile task (worker.render_tile) by tile size against the whole
           frame (worker.render_frame), in this process with 2 threads and with 1: the rule for
-          plan.MIN_TILE_PIXELS.
+          plan.MIN_TILE_PIXELS; and the peak memory allocated during each task (tracemalloc).
 events    what a progress report costs: Report calls on a worker (log_event), received by the client
           (subscribe_topic), and how many a shot of 24 small frames sends per task.
 Then a projection for 10 and 100 machines from those figures.
@@ -200,12 +200,35 @@ def bench_tiles(d, rounds):
                 t = worker.render_tile(job, 1, 1, o, box, 0, spp)
                 tiles[n][0].append(t['render_seconds'] / (n * n * spp))
                 tiles[n][1].append(t['wall_seconds'] / (n * n * spp))
+        peaks = _peaks(job, o, sizes) if threads == 2 else None
         worker.close()
         print(f'  {threads} thread(s): whole frame {med(whole) * 1e9:.0f} ns')
         for n in sizes:
             print(f'    tile {n}x{n} ({n * n // 64} kernel tiles): render {med(tiles[n][0]) * 1e9:.0f} ns '
                   f'({med(tiles[n][0]) / med(whole):.2f}x the whole frame), task {med(tiles[n][1]) * 1e9:.0f} ns')
-        out[threads] = (med(whole), {n: tuple(med(x) for x in v) for n, v in tiles.items()})
+        if peaks:
+            print('  peak memory allocated during a task (tracemalloc: numpy arrays and Python objects): '
+                  + ', '.join(f'{k} {v / 1e6:.2f} MB' for k, v in peaks.items()))
+        out[threads] = (med(whole), {n: tuple(med(x) for x in v) for n, v in tiles.items()}, peaks)
+    return out
+
+
+def _peaks(job, o, sizes) -> dict:
+    """Peak traced allocation of a whole-frame task and of each tile task (the worker's accumulator
+    is the task's pixels: Renderer.render(window=))."""
+    import tracemalloc
+    from rtc.renderer.host.shots import worker
+    calls = {'whole frame': lambda: worker.render_frame(job, 1, 1, o)}
+    for n in sizes:
+        calls[f'{n}x{n}'] = lambda n=n: worker.render_tile(job, 1, 1, o, (0, 0, n, n), 0, o.spp)
+    out = {}
+    for name, call in calls.items():
+        tracemalloc.start()
+        try:
+            call()
+            out[name] = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
     return out
 
 

@@ -31,10 +31,11 @@ from ...kernel.tiles import TILE
 
 MAX_SPLIT_BYTES = 256 << 20          # per frame: the single-sample films of all its samples
 # benchmarks/bench_shot.py `tiles` (512x384 4 spp, path; RESULTS.md "Shots and Dask"): time per pixel
-# sample of a tile task against the whole frame's, 2 threads / 1 thread, two runs: 16x16 5.8-4.3x /
-# 1.0-1.2x, 32x32 1.5-2.4x / 0.9-1.0x, 64x64 1.28-1.35x / 0.95-0.99x, 128x128 1.06-1.09x / 0.91-0.98x
-# (passes over few kernel tiles leave threads idle): the smallest tile within 10 % of the whole
-# frame in both
+# sample of a tile task (Renderer.render(window=): the tile's pixels only, host threads claiming
+# kernel tiles) against the whole frame's, 2 threads / 1 thread, two runs: 16x16 1.63-1.58x /
+# 1.12-1.11x, 32x32 1.32-1.15x / 1.03-1.02x, 64x64 1.11-1.09x / 1.08-1.03x, 128x128 1.06-1.04x /
+# 1.03x (a pass over few kernel tiles leaves a thread idle at its end): the smallest tile within
+# 10 % of the whole frame in both runs (64x64 is at the edge)
 MIN_TILE_PIXELS = 128 * 128
 MAX_RESULT_BYTES = 64 << 20          # per task result on a cluster (a 2336x2336 float32 RGB tile)
 Box = tuple                          # (x0, y0, x1, y1) pixels, [x0, x1) x [y0, y1)
