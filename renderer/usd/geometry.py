@@ -69,6 +69,11 @@ def implicit_type(prim: Usd.Prim) -> str:
 
 
 # --------------------------------------------------------------------------- meshes
+def points_box(points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi): the axis-aligned box of (n, 3) points."""
+    return points.min(axis=0), points.max(axis=0)
+
+
 def _fan(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Fan triangulation of polygons given their vertex counts, vectorised.
 

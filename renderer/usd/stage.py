@@ -31,7 +31,8 @@ from ..errors import SceneError
 from ..options import RenderOptions, resolve
 from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
                                  shutter)
-from .geometry import GeometryError, convert_gprim
+from .geometry import GeometryError, convert_gprim, points_box
+from .geometry_cache import GeometryCache
 from .instancing import INHERIT, RENDERED, InstanceGraph, Placements
 from .lights import default_lights, read_light
 from .materials import MaterialTable
@@ -41,19 +42,23 @@ MAX_DIAGNOSTICS = 50
 
 
 def read_stage(source: Union[str, os.PathLike, Usd.Stage], *, time: Optional[float] = None,
-               camera_path: Optional[str] = None, options: Optional[RenderOptions] = None) -> SceneDescription:
+               camera_path: Optional[str] = None, options: Optional[RenderOptions] = None,
+               geometry: Optional[GeometryCache] = None) -> SceneDescription:
     """Read a USD file (or an open stage) into a SceneDescription.
 
     `time` defaults to the stage's startTimeCode; `camera_path` overrides the render settings'
     camera.  `options` (what the render asks for) are resolved against the stage's render settings
     into `desc.options`, and the camera is fitted to that image size.  Raises SceneError for
     unusable input, RenderError for unusable options; problems with single prims become
-    `warnings` / `skipped` entries instead."""
+    `warnings` / `skipped` entries instead.  `geometry`: a `GeometryCache` kept across reads of
+    the same stage at other time codes (a shot's frames), which converts static gprims once."""
     delegate = UsdUtils.CoalescingDiagnosticDelegate()
     label = '<memory>'
     try:
         stage, label = _open(source)
-        desc = _Reader(stage, label, time, camera_path, options).read()
+        if geometry is not None:
+            geometry.use(stage)
+        desc = _Reader(stage, label, time, camera_path, options, geometry).read()
     except Tf.ErrorException as exc:
         raise SceneError(f'{label}: {_first_line(exc)}') from None
     notes = [d.commentary for d in delegate.TakeUncoalescedDiagnostics()]
@@ -103,8 +108,10 @@ class _Shape:
 
 
 class _Reader:
-    def __init__(self, stage, label, time, camera_path, options):
+    def __init__(self, stage, label, time, camera_path, options, geometry=None):
         self.stage, self.label = stage, label
+        self.convert = geometry.convert if geometry is not None else convert_gprim
+        self.box = geometry.box if geometry is not None else points_box
         self.t = float(stage.GetStartTimeCode() if time is None else time)
         self.tc = Usd.TimeCode(self.t)
         self.camera_path, self.options = camera_path, options
@@ -159,7 +166,7 @@ class _Reader:
                                 meters_per_unit=float(UsdGeom.GetStageMetersPerUnit(stage)),
                                 up_axis='Z' if up == UsdGeom.Tokens.z else 'Y',
                                 warnings=self.warnings, skipped=self.skipped)
-        lo, hi = scene_bounds(desc)
+        lo, hi = scene_bounds(desc, self.box)
         if camera_prim is not None:
             world = [up_matrix @ _camera_world(camera_prim, x) for x in times]
             motion = np.stack(world) if len(times) > 1 and any(np.any(w != world[0]) for w in world) else None
@@ -191,7 +198,7 @@ class _Reader:
         node, shapes = graph.nodes[n], []
         for (prim, purpose), rel in zip(node.gprims, node.gprim_xf):
             try:
-                records = convert_gprim(prim, rel[0], self.tc, self.warn)
+                records = self.convert(prim, rel[0], self.tc, self.warn)
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue
@@ -405,13 +412,13 @@ def _collapse_static_motion(desc: SceneDescription) -> None:
     desc.shutter_times = desc.shutter_times[:1]
 
 
-def scene_bounds(desc: SceneDescription) -> tuple[np.ndarray, np.ndarray]:
+def scene_bounds(desc: SceneDescription, box=points_box) -> tuple[np.ndarray, np.ndarray]:
     """World-space axis-aligned bounds of all placed geometry at the first motion sample
-    (inverted infinite box when there is none)."""
+    (inverted infinite box when there is none).  `box(points)`: a mesh's (lo, hi)."""
     lo, hi = np.full(3, np.inf), np.full(3, -np.inf)
     inst = desc.instances
     for c, container in enumerate(desc.containers):
-        boxes = [(m.points.min(axis=0), m.points.max(axis=0)) for m in container.meshes]
+        boxes = [box(m.points) for m in container.meshes]
         boxes += [(s.matrix[:3, 3] - s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1),
                    s.matrix[:3, 3] + s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1))
                   for s in container.spheres]

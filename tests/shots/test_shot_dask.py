@@ -50,21 +50,23 @@ def test_one_frame_split_over_two_workers_is_bit_identical(client, shot_path, re
     assert same_bits(tmp_path / 'one.exr', reference(3))
 
 
+def _kill_a_worker_running(client, prefix, killed):
+    """SIGKILL the process of the first worker seen running a task whose key starts with `prefix`."""
+    deadline = time.monotonic() + 120
+    while time.monotonic() < deadline and not killed:
+        for addr, keys in client.processing().items():
+            if any(str(k).startswith(prefix) for k in keys):
+                pid = client.run(os.getpid, workers=[addr])[addr]
+                os.kill(pid, signal.SIGKILL)
+                killed.update(addr=addr, pid=pid, keys=list(keys))
+                return
+        time.sleep(0.005)
+
+
 def test_a_worker_killed_mid_render_costs_only_its_tasks(client, shot_path, tmp_path):
     spp = 96
     killed = {}
-
-    def killer():
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and not killed:
-            for addr, keys in client.processing().items():
-                if any(str(k).startswith('rtc-frame-') for k in keys):
-                    pid = client.run(os.getpid, workers=[addr])[addr]
-                    os.kill(pid, signal.SIGKILL)
-                    killed.update(addr=addr, pid=pid, keys=list(keys))
-                    return
-            time.sleep(0.005)
-    t = threading.Thread(target=killer)
+    t = threading.Thread(target=_kill_a_worker_running, args=(client, 'rtc-frame-', killed))
     t.start()
     res = run_shot(_job(shot_path, spp), [1, 2, 3, 4], str(tmp_path / 'k.####.exr'), client=client)
     t.join()
@@ -162,3 +164,57 @@ def test_a_worker_that_cannot_read_the_scene_is_named(scheduler, tmp_path):
     assert 'tcp://127.0.0.1:' in p.stderr and 'elsewhere/shot.usda: no such file' in p.stderr
     assert 'Traceback' not in p.stderr
     assert os.listdir(tmp_path) == []
+
+
+BIG = dict(width=384, height=256, spp=2)                 # 98 304 pixels: 6 tiles of 128x128 fit
+
+
+@pytest.fixture(scope='module')
+def big_reference(shot_path):
+    o = RenderOptions(seed=3, **BIG)
+    return render(read_stage(shot_path, time=2, options=o), o).image
+
+
+def test_a_large_frame_is_tiled_over_two_workers_bit_identical(client, shot_path, big_reference, tmp_path):
+    res = run_shot(Job(shot='', scene=shot_path, options=RenderOptions(seed=3, **BIG), threads=1), [2],
+                   str(tmp_path / 'big.exr'), client=client)
+    assert (res.tiles, res.split, res.tasks) == (4, 1, 4)            # tiles, no sample ranges: 2 per worker
+    assert len(res.by_worker) == 2
+    assert same_bits(tmp_path / 'big.exr', big_reference)
+    # back: each tile's float32 pixels, no more than the whole frame's
+    assert res.bytes_from_worker == [192 * 128 * 12] * 4               # 192x128 tiles
+    assert sum(res.bytes_from_worker) == 384 * 256 * 12
+    assert all(b < 4096 for b in res.bytes_to_worker)
+
+
+def test_tiles_times_sample_ranges_are_bit_identical(client, shot_path, big_reference, tmp_path):
+    res = run_shot(Job(shot='', scene=shot_path, options=RenderOptions(seed=3, **BIG), threads=1), [2],
+                   str(tmp_path / 'big.exr'), client=client, tiles=6, split=2)
+    assert (res.tiles, res.split, res.tasks) == (6, 2, 12)
+    assert same_bits(tmp_path / 'big.exr', big_reference)
+    # back: one float64 film of the tile per sample (1 sample per range here)
+    assert sum(res.bytes_from_worker) == 384 * 256 * 24 * 2
+
+
+def test_progress_moves_with_samples_while_a_frame_renders(client, shot_path, tmp_path):
+    seen = []
+    res = run_shot(_job(shot_path, 256), [1], str(tmp_path / 'p.exr'), client=client, tiles=1, split=1,
+                   watch=lambda frames, samples, rays: seen.append((frames, samples, rays)))
+    total = 32 * 24 * 256
+    assert res.tasks == 1 and res.events >= 1
+    during = [s for f, s, r in seen if f == 0 and 0 < s < total]      # reported by the running task
+    assert during and during == sorted(during)
+    assert seen[-1][:2] == (1, total) and seen[-1][2] == res.rays
+
+
+def test_a_worker_killed_while_rendering_a_tile_costs_only_that_tile(client, shot_path, tmp_path):
+    o = RenderOptions(seed=3, width=384, height=256, spp=16)
+    killed = {}
+    t = threading.Thread(target=_kill_a_worker_running, args=(client, 'rtc-frame-2-tile-', killed))
+    t.start()
+    res = run_shot(Job(shot='', scene=shot_path, options=o, threads=1), [2], str(tmp_path / 't.exr'), client=client)
+    t.join()
+    assert killed, 'no tile was seen rendering'
+    assert res.tiles == 4 and res.written == [2]
+    assert same_bits(tmp_path / 't.exr', render(read_stage(shot_path, time=2, options=o), o).image)
+    client.wait_for_workers(2, timeout=120)              # the nanny restarted it (for the next tests)

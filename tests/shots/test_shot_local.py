@@ -7,10 +7,11 @@ import sys
 import numpy as np
 import pytest
 
-from rtc.renderer.host.render import RenderOptions
+from rtc.renderer.host.render import RenderOptions, render
 from rtc.renderer.host.shots.frames import ShotError
 from rtc.renderer.host.shots.run import run_shot
 from rtc.renderer.host.shots.worker import Job
+from rtc.renderer.usd.stage import read_stage
 
 from .conftest import FRAMES, H, SPP, W, same_bits
 
@@ -115,3 +116,52 @@ def test_prototypes_are_reused_only_when_their_geometry_is_the_same(shot_path):
     d = copy.deepcopy(b)
     d.containers[0].meshes.pop()
     assert not same_containers(a, d)
+
+
+def test_tiles_in_this_process_with_the_cook_integrator_are_bit_identical(shot_path, tmp_path):
+    o = RenderOptions(seed=3, integrator='cook', width=72, height=40)     # tiles end at the image's edges
+    ref = render(read_stage(shot_path, time=3, options=o), o).image
+    res = run_shot(Job(shot='', scene=shot_path, options=o), [3], str(tmp_path / 'c.exr'), tiles=3)
+    assert res.tiles == 3 and res.tasks == 3
+    assert same_bits(tmp_path / 'c.exr', ref)
+    res = run_shot(Job(shot='', scene=shot_path, options=o), [3], str(tmp_path / 'd.exr'), tiles=2, split=2)
+    assert (res.tiles, res.split, res.tasks) == (2, 2, 4)
+    assert same_bits(tmp_path / 'd.exr', ref)
+
+
+def test_a_tile_task_holds_and_returns_its_window_only(shot_path):
+    """worker.render_tile renders `Renderer.render(window=)`: the tile's pixels (all samples) or one
+    film of the tile per sample, the frame's values there; a box off the 8-pixel grid, or samples
+    outside [0, spp), are refused naming the tile."""
+    from rtc.renderer.host.shots import worker
+    o = RenderOptions(seed=3, integrator='cook', width=72, height=40, spp=3)
+    job = Job(shot='tile-task', scene=shot_path, options=o)
+    try:
+        whole = worker.render_frame(job, 3, 3, o)['image']
+        t = worker.render_tile(job, 3, 3, o, (16, 8, 72, 40), 0, 3)
+        assert t['image'].shape == (32, 56, 3) and t['box'] == (16, 8, 72, 40)
+        assert t['image'].tobytes() == whole[8:40, 16:72].tobytes()
+        part = worker.render_tile(job, 3, 3, o, (16, 8, 72, 40), 1, 3)['samples']
+        assert part.shape == (2, 32, 56, 3) and part.dtype == np.float64
+        for box, s0, s1 in (((4, 8, 72, 40), 0, 3), ((16, 8, 70, 40), 0, 3), ((16, 8, 72, 40), 2, 4)):
+            with pytest.raises(worker.TaskFailed, match=r'tile \(.*\), samples \[.*\) do not fit a 72x40 frame'):
+                worker.render_tile(job, 3, 3, o, box, s0, s1)
+    finally:
+        worker.close()
+
+
+def test_progress_in_this_process_counts_every_sample(shot_path, tmp_path):
+    seen = []
+    res = run_shot(_job(shot_path), [1, 2], str(tmp_path / 'p.####.exr'),
+                   watch=lambda frames, samples, rays: seen.append((frames, samples, rays)))
+    assert seen[-1] == (2, 2 * W * H * SPP, res.rays)
+    assert [f for f, _, _ in seen] == sorted(f for f, _, _ in seen)
+    assert any(f == 0 and 0 < s for f, s, _ in seen)             # a pass reported before the frame was written
+
+
+def test_reads_reuse_static_gprims_and_change_no_bit(shot_path, reference, tmp_path):
+    on = run_shot(_job(shot_path), [1, 2, 3], str(tmp_path / 'on.####.exr'))
+    off = run_shot(_job(shot_path, reuse_reads=False), [1, 2, 3], str(tmp_path / 'off.####.exr'))
+    for f in (1, 2, 3):
+        assert same_bits(tmp_path / f'on.{f:04d}.exr', reference(f))
+        assert same_bits(tmp_path / f'off.{f:04d}.exr', reference(f))

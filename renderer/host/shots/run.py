@@ -27,7 +27,8 @@ from .. import film as film_mod
 from ..progress import _sig3
 from . import worker
 from .frames import ShotError, output_name
-from .plan import FrameAssembly, Task, plan, split_count
+from .events import Report, Tally
+from .plan import FrameAssembly, Split, Task, grid, plan, split_for
 
 CONNECT_TIMEOUT = 10.0               # seconds to reach a scheduler
 # local workers: no MALLOC_TRIM_THRESHOLD_=65536 (Dask's default for its workers made read_stage cost
@@ -55,7 +56,8 @@ class ShotResult:
     skipped: list = field(default_factory=list)
     workers: int = 1
     tasks: int = 0
-    split: int = 1                     # sample ranges per frame
+    split: int = 1                     # sample ranges per frame (per tile of a tiled frame)
+    tiles: int = 1                     # tiles per frame (1: not tiled)
     width: int = 0
     height: int = 0
     spp: int = 0
@@ -70,6 +72,7 @@ class ShotResult:
     by_worker: dict = field(default_factory=dict)        # worker address -> tasks done
     bytes_to_worker: list = field(default_factory=list)  # pickled task arguments
     bytes_from_worker: list = field(default_factory=list)  # result arrays
+    events: int = 0                    # progress reports received from running tasks
     dashboard: str | None = None
     warnings: list = field(default_factory=list)
 
@@ -81,24 +84,51 @@ class ShotResult:
         skipped = f' ({len(self.skipped)} already written)' if self.skipped else ''
         return (f'rendered {n} of {self.frames} frames{skipped} ({self.width}x{self.height}, {self.spp} spp) '
                 f'in {self.wall_seconds:.2f} s (first read and kernels {self.probe_seconds:.2f} s) '
-                f'on {self.workers} worker{"s" if self.workers != 1 else ""}: '
+                f'on {self.workers} worker{"s" if self.workers != 1 else ""}{self._pieces()}: '
                 f'{per}{_sig3(self.rays / 1e6)} M rays, {_sig3(rate)} Mrays/s')
+
+    def _pieces(self) -> str:
+        """' (16 tasks: 4 tiles x 2 sample ranges per frame)', or '' for whole frames."""
+        cuts = ([f'{self.tiles} tiles'] if self.tiles > 1 else []) + \
+            ([f'{self.split} sample ranges'] if self.split > 1 else [])
+        return f' ({self.tasks} tasks: {" x ".join(cuts)} per frame)' if cuts else ''
 
 
 class _Progress:
-    """One bar over the shot (frames done / total, samples, Mrays/s over all workers) on a terminal."""
+    """One bar over the shot on a terminal: it moves with the samples rendered, as the running tasks
+    report them (events.py), and shows frames done / total and Mrays/s over all workers.
+    `watch(frames, samples, rays)`: called on every change (tests)."""
 
-    def __init__(self, total: int, quiet: bool):
+    def __init__(self, frames: int, samples: int, quiet: bool, watch=None):
+        self.frames, self.done = frames, 0
+        self.t0 = _time.perf_counter()
+        self.watch = watch
+        self.lock = threading.Lock()
+        self.tally = Tally(self.refresh)
         self.bar = None
         if not quiet and sys.stderr.isatty():
             from tqdm import tqdm
-            self.bar = tqdm(total=total, unit='frame', file=sys.stderr, dynamic_ncols=True, leave=False)
+            self.bar = tqdm(total=samples, unit='sample', unit_scale=True, file=sys.stderr, dynamic_ncols=True,
+                            leave=False, desc=self._desc())
 
-    def update(self, frames: int, result: ShotResult, t0: float):
-        if self.bar is not None:
-            dt = max(_time.perf_counter() - t0, 1e-9)
-            self.bar.set_postfix_str(f'{_sig3(result.samples / 1e6)} M samples, {_sig3(result.rays / dt / 1e6)} Mrays/s')
-            self.bar.update(frames)
+    def _desc(self) -> str:
+        return f'frames {self.done}/{self.frames}'
+
+    def frame_done(self, n: int = 1) -> None:
+        self.done += n
+        self.refresh()
+
+    def refresh(self) -> None:
+        samples, rays = self.tally.totals()
+        with self.lock:
+            if self.watch is not None:
+                self.watch(self.done, samples, rays)
+            if self.bar is not None:
+                dt = max(_time.perf_counter() - self.t0, 1e-9)
+                self.bar.set_description_str(self._desc(), refresh=False)
+                self.bar.set_postfix_str(f'{_sig3(rays / dt / 1e6)} Mrays/s', refresh=False)
+                self.bar.n = samples
+                self.bar.refresh()
 
     def close(self):
         if self.bar is not None:
@@ -139,7 +169,7 @@ def _already_written(path: str, o) -> bool:
 @contextlib.contextmanager
 def cluster(workers: int | None = None, scheduler: str | None = None, quiet: bool = False):
     """A Dask client: of an existing scheduler at `scheduler`, or of a local cluster of `workers`
-    processes (one thread each: a render uses the process's cores through numba)."""
+    processes (one thread each: a render uses the process's cores through its own render threads)."""
     from distributed import Client, LocalCluster
     if scheduler:
         try:
@@ -194,7 +224,8 @@ def _dashboard(client, remote: bool) -> str | None:
 
 
 def _thread_split(client) -> int:
-    """Numba threads per render on a local cluster: the machine's cores shared by its workers."""
+    """Render threads per render (`Renderer(threads=)`) on a local cluster: the machine's cores shared by
+    its workers."""
     n = len(client.scheduler_info()['workers'])
     return max(1, (len(os.sched_getaffinity(0)) if hasattr(os, 'sched_getaffinity') else os.cpu_count() or 1) // n)
 
@@ -202,12 +233,17 @@ def _thread_split(client) -> int:
 class _Shot:
     """The state of one run: tasks, assemblies of split frames, what was written."""
 
-    def __init__(self, job, frames, pattern, result, progress, options):
+    def __init__(self, job, frames, pattern, result, progress, options, split: Split):
         self.job, self.frames, self.pattern, self.result, self.progress = job, frames, pattern, result, progress
         self.o = options
+        self.split = split
         self.assembly: dict = {}
         self.rays: dict = {}
         self.t0 = _time.perf_counter()
+
+    def task_pixels(self, task: Task) -> int:
+        x0, y0, x1, y1 = task.box if task.box is not None else (0, 0, self.o.width, self.o.height)
+        return (x1 - x0) * (y1 - y0)
 
     def take(self, task: Task, out: dict) -> None:
         """A task's result: account for it; write its frame when the frame is complete."""
@@ -221,17 +257,19 @@ class _Shot:
             r.load_seconds.append(out['load_seconds'])
             r.build_seconds.append(out['build_seconds'])
         o = self.o
-        if task.whole:
-            r.bytes_from_worker.append(out['image'].nbytes)
-            r.samples += o.width * o.height * o.spp
+        samples = self.task_pixels(task) * (task.s1 - task.s0)
+        r.samples += samples
+        self.progress.tally.finish(task.key, samples, out['rays'])
+        r.bytes_from_worker.append(out['image'].nbytes if task.whole else out['samples'].nbytes)
+        if task.whole and task.box is None:
             # an array of its own: one Dask received can be a view into a larger message buffer,
             # which OpenImageIO's writer refused ('buffer is wrong size') for 8x6 frames
             image = np.array(out['image'], dtype=np.float32, order='C', copy=True)
         else:
-            r.bytes_from_worker.append(out['samples'].nbytes)
-            r.samples += o.width * o.height * (task.s1 - task.s0)
-            a = self.assembly.setdefault(task.frame, FrameAssembly(o.width, o.height, o.spp))
-            a.add(task.s0, out['samples'])
+            a = self.assembly.get(task.frame)
+            if a is None:
+                a = self.assembly[task.frame] = FrameAssembly(o.width, o.height, o.spp, self.split.tiles)
+            a.add(task, out)
             if not a.complete:
                 return
             image = self.assembly.pop(task.frame).image()
@@ -242,13 +280,18 @@ class _Shot:
         except film_mod.FilmError as e:
             raise ShotError(str(e)) from None
         r.written.append(task.frame)
-        self.progress.update(1, r, self.t0)
+        self.progress.frame_done()
 
 
-def _call(task: Task, job, o, should_stop=lambda: False):
+def _call(task: Task, job, o, should_stop=lambda: False, report=None):
+    """The worker function and arguments of a task."""
+    report = report if report is not None else worker._no_report
+    if task.box is not None:
+        return worker.render_tile, (job, task.frame, task.frame, o, task.box, task.s0, task.s1), \
+            {'should_stop': should_stop, 'report': report}
     if task.whole:
-        return worker.render_frame(job, task.frame, task.frame, o, should_stop)
-    return worker.render_samples(job, task.frame, task.frame, o, task.s0, task.s1)
+        return worker.render_frame, (job, task.frame, task.frame, o), {'should_stop': should_stop, 'report': report}
+    return worker.render_samples, (job, task.frame, task.frame, o, task.s0, task.s1), {'report': report}
 
 
 def _run_local(shot: _Shot, tasks: list[Task]) -> None:
@@ -261,8 +304,10 @@ def _run_local(shot: _Shot, tasks: list[Task]) -> None:
         for t in tasks:
             if stop['now']:
                 raise ShotInterrupted(shot.result)
+            fn, args, kw = _call(t, shot.job, shot.o, should_stop=lambda: stop['now'],
+                                 report=shot.progress.tally.reporter(t.key))
             try:
-                out = _call(t, shot.job, shot.o, should_stop=lambda: stop['now'])
+                out = fn(*args, **kw)
             except worker.TaskFailed as e:
                 raise ShotError(str(e)) from None
             if out.get('interrupted'):
@@ -277,12 +322,14 @@ def _run_dask(shot: _Shot, tasks: list[Task], client) -> None:
     from distributed import as_completed
     from distributed.scheduler import KilledWorker
     job, o = shot.job, shot.o
+    topic = f'rtc-progress-{job.shot}'
+    client.subscribe_topic(topic, shot.progress.tally.event)
     futures = {}
     for i, t in enumerate(tasks):
-        fn, args = ((worker.render_frame, (job, t.frame, t.frame, o)) if t.whole else
-                    (worker.render_samples, (job, t.frame, t.frame, o, t.s0, t.s1)))
-        shot.result.bytes_to_worker.append(len(pickle.dumps(args)))
-        futures[client.submit(fn, *args, key=f'{t.key}-{job.shot}', priority=-i, pure=False)] = t
+        fn, args, kw = _call(t, job, o, report=Report(topic, t.key))
+        kw.pop('should_stop', None)                    # a cluster's tasks are cancelled instead
+        shot.result.bytes_to_worker.append(len(pickle.dumps((args, kw))))
+        futures[client.submit(fn, *args, **kw, key=f'{t.key}-{job.shot}', priority=-i, pure=False)] = t
 
     def on_term(signum, frame):
         raise KeyboardInterrupt
@@ -304,14 +351,30 @@ def _run_dask(shot: _Shot, tasks: list[Task], client) -> None:
         signal.signal(signal.SIGTERM, old)
         if futures:
             client.cancel(list(futures), force=True)
+        client.unsubscribe_topic(topic)
+        shot.result.events = shot.progress.tally.events
+
+
+def _probe(client, job, first, result) -> dict:
+    """`worker.probe` of the first frame, here or as the shot's first Dask task (Ctrl-C: interrupted)."""
+    try:
+        if client is None:
+            return worker.probe(job, first, first)
+        return client.submit(worker.probe, job, first, first, key=f'rtc-probe-{job.shot}', pure=False).result()
+    except worker.TaskFailed as e:
+        raise ShotError(str(e)) from None
+    except KeyboardInterrupt:
+        raise ShotInterrupted(result) from None
 
 
 def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, scheduler: str | None = None,
              client=None, resume: bool = False, quiet: bool = False, split: int | None = None,
-             echo=lambda message: None) -> ShotResult:
+             tiles: int | None = None, echo=lambda message: None, watch=None) -> ShotResult:
     """Render `frames` of `job` to `pattern` (see frames.output_name); in this process when neither
-    `workers`, `scheduler` nor `client` is given.  `split`: sample ranges per frame (None: as many
-    as keep the workers busy).  `echo(message)` receives the user-facing notes (dashboard, warnings)."""
+    `workers`, `scheduler` nor `client` is given.  `split` / `tiles`: sample ranges per tile and
+    tiles per frame (None: plan.split_for's choice, which keeps the workers busy).  `echo(message)`
+    receives the user-facing notes (dashboard, warnings); `watch(frames, samples, rays)` every
+    change of the progress."""
     t0 = _time.perf_counter()
     job = job if job.shot else worker.Job(**{**job.__dict__, 'shot': uuid.uuid4().hex[:12]})
     result = ShotResult(frames=len(frames))
@@ -326,23 +389,23 @@ def run_shot(job, frames: list, pattern: str, *, workers: int | None = None, sch
             if result.dashboard:
                 echo(f'rtc: Dask dashboard at {result.dashboard}')
         first = frames[0]
-        try:
-            info = (worker.probe(job, first, first) if client is None else
-                    client.submit(worker.probe, job, first, first, key=f'rtc-probe-{job.shot}', pure=False).result())
-        except worker.TaskFailed as e:
-            raise ShotError(str(e)) from None
+        info = _probe(client, job, first, result)
         o = info['options']
         result.probe_seconds = _time.perf_counter() - t0
         result.width, result.height, result.spp, result.warnings = o.width, o.height, o.spp, info['warnings']
         todo = []
         for f in frames:
             (result.skipped if resume and _already_written(output_name(pattern, f), o) else todo).append(f)
-        n_split = split if split is not None else split_count(len(todo), result.workers, o.width, o.height, o.spp)
-        tasks = plan(todo, o.spp, n_split)
-        result.split, result.tasks = n_split, len(tasks)
-        progress = _Progress(len(frames), quiet)
-        progress.update(len(result.skipped), result, t0)
-        shot = _Shot(job, todo, pattern, result, progress, o)
+        how = split_for(len(todo), result.workers, o.width, o.height, o.spp, cluster=client is not None)
+        if tiles is not None:
+            how = Split(grid(o.width, o.height, tiles) if tiles > 1 else (None,), how.ranges)
+        if split is not None:
+            how = Split(how.tiles, split)
+        tasks = plan(todo, o.spp, how)
+        result.split, result.tiles, result.tasks = how.ranges, len(how.tiles), len(tasks)
+        progress = _Progress(len(frames), len(todo) * o.width * o.height * o.spp, quiet, watch)
+        progress.frame_done(len(result.skipped))
+        shot = _Shot(job, todo, pattern, result, progress, o, how)
         try:
             if client is None:
                 _run_local(shot, tasks)
