@@ -33,10 +33,10 @@ ROOT = Path(__file__).resolve().parents[1]
 
 def _debug_cache_dir() -> str:
     digest = hashlib.sha256()
-    for source in sorted((ROOT / 'renderer').glob('*.py')):
-        digest.update(source.name.encode())
+    for source in sorted((ROOT / 'renderer').rglob('*.py')):
+        digest.update(source.relative_to(ROOT).as_posix().encode())
         digest.update(source.read_bytes())
-    return str(Path(tempfile.gettempdir()) / 'rtc_profile_cache' / ('v2-' + digest.hexdigest()[:16]))
+    return str(Path(tempfile.gettempdir()) / 'rtc_profile_cache' / ('v4-' + digest.hexdigest()[:16]))
 
 
 os.environ['NUMBA_DEBUGINFO'] = '1'
@@ -44,6 +44,30 @@ os.environ['NUMBA_CACHE_DIR'] = _debug_cache_dir()
 
 import numba  # noqa: E402
 from numba.core import codegen as _codegen  # noqa: E402
+from numba.core import cpu as _cpu  # noqa: E402
+from numba.core import lowering as _lowering  # noqa: E402
+
+# Line tables, not a debug build: numba's full debug info (what NUMBA_DEBUGINFO=1 alone gives) also turns
+# on bounds checks, extends variable lifetimes and marks every function `noinline`, which would profile
+# another program.  Those three are undone here; the debug records (line tables) stay.
+_finalize = _cpu.CPUTargetOptions.finalize
+_pre_lower = _lowering.Lower.pre_lower
+
+
+def _no_debug_build(self, flags, options):
+    _finalize(self, flags, options)
+    if flags.debuginfo:
+        flags.boundscheck = False
+        flags.dbg_extend_lifetimes = False
+
+
+def _inlinable(self):
+    _pre_lower(self)
+    self.builder.function.attributes.discard('noinline')
+
+
+_cpu.CPUTargetOptions.finalize = _no_debug_build
+_lowering.Lower.pre_lower = _inlinable
 
 # Every object file the JIT loads, with its library: numba hands a library's object code to LLVM
 # through these two hooks (compiled now, or read from the cache) and then drops it.
@@ -166,6 +190,7 @@ def _arguments(argv):
     ap.add_argument('--sampler', default='sobol')
     ap.add_argument('--filter', default='gaussian')
     ap.add_argument('--max-depth', type=int, default=4)
+    ap.add_argument('--integrator', choices=['cook', 'path'], default=None, help="default: the stage's")
     ap.add_argument('--threads', type=int, default=1)
     ap.add_argument('--seconds', type=float, default=8.0)
     ap.add_argument('--frequency', type=int, default=4000, help='perf sampling frequency (Hz)')
@@ -185,8 +210,8 @@ def _renderer(a):
         desc = read_stage(a.scene)
     numba.set_num_threads(a.threads)
     opts = RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler=a.sampler, filter=a.filter,
-                         max_depth=a.max_depth)
-    r = Renderer(desc)
+                         max_depth=a.max_depth, integrator=a.integrator)
+    r = Renderer(desc, threads=a.threads)
     t0 = time.perf_counter()
     r.render(RenderOptions(**{**opts.__dict__, 'spp': 1}))
     print(f'kernel ready in {time.perf_counter() - t0:.1f} s (debug-info build, cache {os.environ["NUMBA_CACHE_DIR"]})',

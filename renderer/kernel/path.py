@@ -43,7 +43,7 @@ from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
-from .samplers import sample_1d, sample_2d
+from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .tables import MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
 from .tiles import claim_tile
 from .trace import PACKET, TFAR, intersect1, intersect16, lane_hit, occluded1
