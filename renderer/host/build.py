@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import description as D
 from .embree import Device, InstanceGroup
+from ..kernel.trace import MASK_LIGHT_SHAPES, MASK_SURFACES
 from ..kernel.tables import (GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
                              TEXTURE_F, TEXTURE_I, WRAP)
 
@@ -305,6 +306,7 @@ def _top_level(dev: Device, protos: list, in_proto: np.ndarray, xf: np.ndarray, 
                                         np.ascontiguousarray(xf[rows, :steps].transpose(1, 0, 2, 3), np.float32)))
             order.append(rows)
     top = dev.top_scene(protos, groups)
+    top.groups = groups                     # kept for `top_with_light_shapes`
     perm = np.concatenate(order) if order else np.zeros(0, np.int64)
     gids = list(top.group_geom_ids)
     grp_base = np.full(max(gids, default=0) + 1, -1, np.int64)
@@ -313,6 +315,18 @@ def _top_level(dev: Device, protos: list, in_proto: np.ndarray, xf: np.ndarray, 
         grp_base[gid] = start
         start += len(rows)
     return top, perm, grp_base
+
+
+def top_with_light_shapes(built: 'BuiltScene', shapes):
+    """The path integrator's top level: the built scene's placements (instance-array geometries
+    0..n-1, as in `built.top`) and the light-shape scene `shapes` (light_selection.shape_scene) as one
+    more instance, geometry n, so that one query of a camera or BSDF ray finds the nearest surface or
+    light shape; the light shapes have ray mask MASK_LIGHT_SHAPES and every surface MASK_SURFACES, so
+    that shadow rays (mask MASK_SURFACES) pass them: light shapes occlude nothing."""
+    groups = list(built.top.groups)
+    light = InstanceGroup(np.array([len(built.prototypes)], np.uint32), np.eye(4, dtype=np.float32)[None, None, :3])
+    masks = [MASK_SURFACES] * len(groups) + [MASK_LIGHT_SHAPES]
+    return built.device.top_scene(list(built.prototypes) + [shapes], groups + [light], masks=masks)
 
 
 def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScene | None = None) -> BuiltScene:

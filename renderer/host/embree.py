@@ -111,6 +111,7 @@ rtcSetNewGeometryBuffer = _declare("rtcSetNewGeometryBuffer", _vp, [_vp, _i32, _
 rtcSetGeometryInstancedScenes = _declare("rtcSetGeometryInstancedScenes", None, [_vp, _vp, _sz])
 rtcSetGeometryTimeStepCount = _declare("rtcSetGeometryTimeStepCount", None, [_vp, _u32])
 rtcGetGeometry = _declare("rtcGetGeometry", _vp, [_vp, _u32])
+rtcSetGeometryMask = _declare("rtcSetGeometryMask", None, [_vp, _u32])
 rtcGetGeometryTransformEx = _declare("rtcGetGeometryTransformEx", None, [_vp, _u32, _f32, _i32, _vp])
 
 
@@ -273,7 +274,7 @@ class Device:
         return self._build_scene(build, robust, "prototype scene")
 
     def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,
-                  quaternion_motion: bool | None = None) -> Scene:
+                  quaternion_motion: bool | None = None, masks: list[int] | None = None) -> Scene:
         """The top-level scene: one INSTANCE_ARRAY geometry per group, geomID = group index.
 
         Every group instances the whole ``prototypes`` list through an index buffer
@@ -282,6 +283,8 @@ class Device:
         rotations are slerped (Embree lerps matrices element-wise, which shrinks a rotating
         object mid-shutter).  None (default) = only for groups whose rotation changes over the
         shutter; True/False = for all / no moving groups.  Static groups always use plain matrices.
+        masks: a ray mask per group (a ray meets a group iff ray mask & group mask != 0); None: Embree's
+        default, every ray meets every group.
         """
         handles = (ctypes.c_void_p * max(len(prototypes), 1))(*[p.handle for p in prototypes])
 
@@ -300,10 +303,17 @@ class Device:
                     fmt, per_step = RTC_FORMAT_QUATERNION_DECOMPOSITION, decomposition
                 else:   # column-major 3x4: Embree's native AffineSpace layout (columns Lx, Ly, Lz, T)
                     fmt, per_step = RTC_FORMAT_FLOAT3X4_COLUMN_MAJOR, transforms.transpose(0, 1, 3, 2)
+                instanced = (handles, len(prototypes))
+                if len(proto_index) == 1:
+                    # an instance array of one instance ignores its index buffer (Embree 4.4: it instances
+                    # the first scene of the list), so it gets its own list of the one scene it instances
+                    instanced = ((ctypes.c_void_p * 1)(prototypes[int(proto_index[0])].handle), 1)
+                    proto_index = np.zeros(1, np.uint32)
                 buffers = [(RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32, proto_index)]
                 buffers += [(RTC_BUFFER_TYPE_TRANSFORM, k, fmt, np.float32, per_step[k]) for k in range(steps)]
                 self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY, buffers,
-                             instanced=(handles, len(prototypes)), time_steps=steps)
+                             instanced=instanced, time_steps=steps,
+                             mask=None if masks is None else masks[geom_id])
             return tuple(range(len(groups)))
         return self._build_scene(build, robust, "top scene")
 
@@ -321,7 +331,8 @@ class Device:
             raise
         return scene
 
-    def _attach(self, scene, geom_id: int, geometry_type: int, buffers, instanced=None, time_steps: int = 1):
+    def _attach(self, scene, geom_id: int, geometry_type: int, buffers, instanced=None, time_steps: int = 1,
+                mask: int | None = None):
         """Create a geometry, fill its buffers, commit it and attach it to ``scene`` as ``geom_id``.
 
         buffers: [(type, slot, format, item dtype, array (count, ...))]; each array is converted
@@ -333,6 +344,8 @@ class Device:
                 rtcSetGeometryInstancedScenes(geometry, ctypes.cast(instanced[0], _vp), instanced[1])
             if time_steps != 1:     # must precede the per-time-step buffers
                 rtcSetGeometryTimeStepCount(geometry, time_steps)
+            if mask is not None:
+                rtcSetGeometryMask(geometry, mask)
             self.check(f"geometry {geom_id}: setup")
             for buffer_type, slot, fmt, dtype, data in buffers:
                 item_bytes = int(np.prod(data.shape[1:], dtype=np.int64)) * np.dtype(dtype).itemsize

@@ -1,7 +1,8 @@
 """The lights as the path integrator samples them: one light per shading point, chosen by power
 from an alias table (Walker 1977; Vose 1991), so the cost of a sample does not grow with the number
 of lights; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
-O(log n) per ray; the cook integrator never builds it); the dome's sampling tables.
+O(log n) per ray, found by the same query as the surfaces: `build.top_with_light_shapes`; the cook
+integrator never builds it); the dome's sampling tables.
 
 Power estimates (only their ratios matter, and any positive choice keeps the estimator unbiased):
 point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
@@ -18,7 +19,7 @@ from ..kernel.tables import LF_AREA, LF_H, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
 
 PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
-                                       'dome_cdf', 'shape_scene', 'geom_off', 'prim_light'])
+                                       'dome_cdf', 'light_group', 'geom_off', 'prim_light'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -91,9 +92,10 @@ def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list
     return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
 
 
-def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device) -> tuple:
-    """(PathLights record, the light-shape Embree scene to keep alive or None) of a built scene
-    (li_f: the light table; bounds (2, 3) of the scene; device: its Embree device)."""
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device, light_group: int) -> tuple:
+    """(PathLights record, the light-shape Embree scene or None) of a built scene (li_f: the light
+    table; bounds (2, 3) of the scene; device: its Embree device; light_group: the instance geometry id
+    the light-shape scene will have in the path integrator's top level, `build.top_with_light_shapes`)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
@@ -108,5 +110,5 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)
     return PathLights(prob=prob, alias=alias, pmf=pmf, shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
-                      dome_i=dome_i, dome_cdf=dome_cdf, shape_scene=scene.handle if scene else 0,
+                      dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if scene else -1,
                       geom_off=geom_off, prim_light=prim_light), scene

@@ -19,7 +19,7 @@ import numpy as np
 from .. import description as D
 from ..errors import RenderError
 from ..options import RenderOptions, resolve
-from .build import build
+from .build import build, top_with_light_shapes
 from .features import general_kernels, scene_features
 from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
@@ -96,14 +96,23 @@ class Renderer:
             reuse.close()
         self.build_seconds = _time.perf_counter() - t0
         self._lights = None
+        self._path_top = None
 
     def path_lights(self):
         """The path integrator's light record (built on its first use: cook renders never build it)."""
         if self._lights is None:
             d = self.built.data
             self._lights, self._light_scene = path_lights(self.desc, d.li_f, self.built.top.bounds(),
-                                                          self.built.device)
+                                                          self.built.device, len(self.built.top.groups))
+            if self._light_scene is not None:
+                self._path_top = top_with_light_shapes(self.built, self._light_scene)
         return self._lights
+
+    def path_scene(self) -> int:
+        """The Embree scene path renders trace: the placements and the light shapes (or the built top
+        level when the scene has no light shape)."""
+        self.path_lights()
+        return self._path_top.handle if self._path_top is not None else self.built.handle
 
     def setup(self, o: RenderOptions) -> PassSetup:
         """What every pass of a render with resolved options `o` shares: its kernel entry point
@@ -131,7 +140,7 @@ class Renderer:
         if o.integrator == 'path':
             if ray_record is not None:
                 raise RenderError('ray recording is available for the cook integrator only')
-            lights = self.path_lights()
+            lights, handle = self.path_lights(), self.path_scene()
             self._on_threads(n, lambda t: entry(data, lights, handle, pp, scratch[t], work, sums, counters))
         else:
             self._on_threads(n, lambda t: entry(data, handle, pp, scratch[t], work, sums, counters, ray_record))
@@ -157,6 +166,9 @@ class Renderer:
         if getattr(self, '_pool', None) is not None:
             self._pool.shutdown()
             self._pool = None
+        if getattr(self, '_path_top', None) is not None:
+            self._path_top.close()
+            self._path_top = None
         if getattr(self, '_light_scene', None) is not None:
             self._light_scene.close()
             self._light_scene = None

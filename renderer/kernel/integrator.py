@@ -67,7 +67,6 @@ def new_scratch(n_lights):
     `ShadowQueue` and the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
     vectorise).  The kernels allocate nothing."""
     f, u = alloc_ray_buffer()
-    lf, lu = alloc_ray_buffer()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
     # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
     # whole packet by `sobol_packet` with the Sobol' sampler
@@ -80,7 +79,7 @@ def new_scratch(n_lights):
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
     return Scratch(alloc_packet16(), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
-                   queue, lanes, lf, lu)
+                   queue, lanes)
 
 
 @nb.njit(**STAGE_JIT)
@@ -448,8 +447,7 @@ def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
-                    scratch.lf, scratch.lu)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index)
         render_tile(S, tr, pp, tile, scratch.packet, scratch.lanes, accum, rec)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

@@ -10,8 +10,9 @@ Lights with extent: rect and disk (uniform by area: pdf = d^2 / (cos_l A)), sphe
 cone it subtends, exact), distant with an angle (uniform in its cone: radiance E / Omega), dome
 (importance sampling of its lat-long texture by luminance x sin(theta), `host/dome_sampling.py`;
 cosine-weighted about n when untextured).  Rects and disks emit from their front (local -Z) only,
-spheres outwards.  Light shapes are not geometry: they occlude nothing, and a ray collects the
-emission of every light shape it crosses before the surface it hits (`area_emission`).  Every ray
+spheres outwards.  Light shapes occlude nothing (shadow rays do not meet them: ray masks), and a ray
+collects the emission of every light shape it crosses before the surface it hits (`shape_emission`,
+`path.find_surface`).  Every ray
 sees them, camera rays included (UsdLux gives lights no camera-visibility attribute; path renders
 what the light emits towards the camera, as Mitsuba and Karma do by default); the cook integrator
 does not see light shapes at all.
@@ -28,7 +29,6 @@ from .features import B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEX
 from .lights import dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
-from .trace import GEOM_ID, PRIM_ID, TFAR, intersect1
 from .vecmath import cross, dot, normalize, onb, sub, to_world
 INF = math.inf
 ZERO = (0.0, 0.0, 0.0)
@@ -275,42 +275,28 @@ def hit_shape(S, k, o, d, tmax, p0):
 
 
 @nb.njit(**_JIT)
-def area_emission(S, L, ray, tmax, prev, f, u):
-    """MIS-weighted radiance of the light shapes crossed by ray = (o, d) before tmax, found in the
-    light-shape scene (one query per shape crossed, plus one); f, u: a ray buffer of its own.
-    prev = (p0, n0, bsdf pdf, mis mode): the vertex the ray left, its normal, the pdf with which
-    its BSDF drew d, and 0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe,
-    or BSDF sampling alone), 2 = weight 0 (next-event estimation alone)."""
+def shape_emission(S, L, k, ray, te, prev):
+    """MIS-weighted radiance of light shape k, which Embree found at distance te along ray = (o, d) (in
+    the path integrator's top level: `host/build.top_with_light_shapes`); zero unless the exact test
+    `hit_shape` agrees (the emitting side, inside the disk, this crossing of a sphere: its far side is
+    a second hit of the same point).  prev = (p0, n0, bsdf pdf, mis mode): the vertex the ray left, its
+    normal, the pdf with which its BSDF drew d, and 0 = weight by the power heuristic, 1 = weight 1
+    (camera ray, delta lobe, or BSDF sampling alone), 2 = weight 0 (next-event estimation alone)."""
     o, d = ray
     p0, n0, pb, mode = prev
-    r = 0.0
-    g = 0.0
-    b = 0.0
     if mode == 2:
         return ZERO
-    tn = 0.0
-    for _ in range(L.prim_light.shape[0]):
-        if not intersect1(L.shape_scene, f, u, o, d, tn, tmax, 0.0):
-            break
-        te = float(f[TFAR])
-        tn = te + 1e-5 * max(te, 1e-3)                 # the next query starts past this shape
-        k = L.prim_light[L.geom_off[u[GEOM_ID]] + u[PRIM_ID]]
-        t, pl = hit_shape(S, k, o, d, tmax, p0)
-        # the exact test: the emitting side, inside the disk, and this crossing (a sphere's far side
-        # is a second Embree hit of the same front point)
-        if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
-            continue
-        w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
-        r += w * S.li_f[k, LF_RAD]
-        g += w * S.li_f[k, LF_RAD + 1]
-        b += w * S.li_f[k, LF_RAD + 2]
-    return r, g, b
+    t, pl = hit_shape(S, k, o, d, INF, p0)
+    if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
+        return ZERO
+    w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
+    return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
 
 
 @nb.njit(**_JIT)
 def escaped_emission(S, L, d, prev):
     """MIS-weighted radiance along a ray that leaves the scene: domes and distant lights with an
-    angle (prev as in `area_emission`); the background colour (weight 1: no light samples it) when
+    angle (prev as in `shape_emission`); the background colour (weight 1: no light samples it) when
     the scene has no dome."""
     p0, n0, pb, mode = prev
     r = 0.0

@@ -40,13 +40,13 @@ from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY)
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
-from .light_sampling import area_emission, choose_light, escaped_emission, sample_ld
+from .light_sampling import choose_light, escaped_emission, sample_ld, shape_emission
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .tables import MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
 from .tiles import claim_tile
-from .trace import PACKET, TFAR, intersect1, intersect16, lane_hit, occluded1
+from .trace import GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, intersect1, intersect16, lane_hit, occluded1_surfaces
 from .vecmath import dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -94,7 +94,7 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
     w = 1.0 if (delta or strategy == NEE_ONLY) else pl * pl / (pl * pl + pb * pb)
     tr.counts[RAYS_SHADOW] += 1
     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-    if occluded1(tr.scene, tr.f, tr.u, vtx.po, wi, 0.0, smax, vtx.time):
+    if occluded1_surfaces(tr.scene, tr.f, tr.u, vtx.po, wi, 0.0, smax, vtx.time):
         return BLACK
     s = w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
@@ -110,6 +110,33 @@ def _origin(p, n, osc):
 @nb.njit(**SHADING_INLINE_JIT)
 def _add(L, T, c):
     return L[0] + T[0] * c[0], L[1] + T[1] * c[1], L[2] + T[2] * c[2]
+
+
+@nb.njit(**STAGE_JIT)
+def find_surface(S, L, tr, path, ray, prev, packet, v):
+    """(hit, its distance or inf, emission): the nearest surface along the ray of path vertex v (at v = 0
+    the camera ray, already traced as the path's lane of the camera `packet`; Embree's hit left in the
+    tracer's ray buffer) and the MIS-weighted emission of the light shapes the ray crosses before it
+    (`prev`: the vertex it left).  The light shapes are in the same top level as the surfaces (geometry
+    L.light_group): a query that meets one is continued just past it."""
+    o, d = ray
+    if v == 0:
+        hit = lane_hit(packet, path.lane, tr.f, tr.u)
+    else:
+        hit = intersect1(tr.scene, tr.f, tr.u, o, d, 0.0, np.inf, path.time)
+        tr.counts[RAYS_SECONDARY] += 1
+    e = BLACK
+    if F_LIGHT_SHAPES:
+        for _ in range(2 * L.prim_light.shape[0] + 1):          # a sphere is met twice
+            if not hit or np.int64(tr.u[INST_ID]) != L.light_group:
+                break
+            te = float(tr.f[TFAR])
+            k = L.prim_light[L.geom_off[tr.u[GEOM_ID]] + tr.u[PRIM_ID]]
+            c = shape_emission(S, L, k, ray, te, prev)
+            e = (e[0] + c[0], e[1] + c[1], e[2] + c[2])
+            hit = intersect1(tr.scene, tr.f, tr.u, o, d, te + 1e-5 * max(te, 1e-3), np.inf, path.time)
+            tr.counts[RAYS_SECONDARY] += 1
+    return hit, (float(tr.f[TFAR]) if hit else np.inf), e
 
 
 @nb.njit(**STAGE_JIT)
@@ -131,14 +158,8 @@ def trace_path(S, L, tr, pp, path, ray, packet):
     after = W_POWER if strategy == MIS else (W_ZERO if strategy == NEE_ONLY else W_ONE)
     depth = 0
     for v in range(max_depth + 1 + PASS_THROUGH_MAX):
-        if v == 0:
-            hit = lane_hit(packet, path.lane, tr.f, tr.u)
-        else:
-            hit = intersect1(tr.scene, tr.f, tr.u, o, d, 0.0, np.inf, time)
-            tr.counts[RAYS_SECONDARY] += 1
-        tmax = float(tr.f[TFAR]) if hit else np.inf
-        if F_LIGHT_SHAPES and L.shapes.shape[0] > 0:
-            Lo = _add(Lo, T, area_emission(S, L, (o, d), tmax, prev, tr.lf, tr.lu))
+        hit, tmax, e = find_surface(S, L, tr, path, Ray(o, d), prev, packet, v)
+        Lo = _add(Lo, T, e)
         if not hit:
             Lo = _add(Lo, T, escaped_emission(S, L, d, prev))
             break
@@ -243,8 +264,7 @@ def render_tiles_path(S, L, scene, pp, scratch, work, accum, counters):
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
-                    scratch.lf, scratch.lu)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index)
         path_tile(S, L, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

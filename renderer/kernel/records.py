@@ -11,8 +11,7 @@ Per thread (allocated once per tile by `render_pass`; the shading code allocates
     ShadowQueue     first-hit shadow rays waiting to be traced as one rtcOccluded16 packet
     Lanes           the camera stage's per-lane state (structure of arrays, so that loops vectorise)
     Scratch         one render thread's arrays, allocated by the host (`integrator.new_scratch`): the camera
-                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes,
-                    the light-shape queries' ray buffer (path)
+                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes
     Tracer          what tracing a path needs besides the scene tables: the Embree scene, the single-ray
                     buffer, matrix scratch, ray counters, the shadow queue and the tile index
 Per path and bounce
@@ -39,8 +38,8 @@ Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
 Packet = namedtuple('Packet', ['valid', 'f', 'u'])
 ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
 Lanes = namedtuple('Lanes', ['o', 'd', 'time', 'ids', 'L', 'u', 'film', 'key32', 'work'])
-Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes', 'lf', 'lu'])
-Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile', 'lf', 'lu'])
+Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes'])
+Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile'])
 SampleKey = namedtuple('SampleKey', ['sampler', 'seed', 'pixel', 'index', 'spp'])
 Path = namedtuple('Path', ['key', 'lane', 'time'])
 Ray = namedtuple('Ray', ['o', 'd'])

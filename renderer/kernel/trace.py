@@ -85,6 +85,10 @@ PACKET_FLOATS = 21 * PACKET   # RTCRayHit16: 21 fields x 16 lanes = 1344 B (Embr
 # RTC_FORMAT_FLOAT3X4_ROW_MAJOR, checked equal by tests/renderer/test_embree.py)
 INVALID = 0xFFFFFFFF
 _ALL_MASK = 0xFFFFFFFF
+# ray masks of the path integrator's top level (host/build.py `top_with_light_shapes`): a ray meets a
+# geometry iff ray mask & geometry mask != 0; camera and BSDF rays meet everything, shadow rays only
+# surfaces (light shapes occlude nothing)
+MASK_SURFACES, MASK_LIGHT_SHAPES = 1, 2
 _XFM_ROW_MAJOR = 0x9134
 
 
@@ -150,6 +154,15 @@ def occluded1(scene, f, u, o, d, tnear, tfar, time):
     """True if anything lies on the ray within [tnear, tfar] (any hit; uses the first 48 B of
     the buffer: Embree sets tfar to -inf when occluded)."""
     _set_ray(f, u, o, d, tnear, tfar, time)
+    rtcOccluded1(scene, f.ctypes.data, 0)
+    return f[TFAR] == -np.inf
+
+
+@numba.njit(**INLINE_JIT)
+def occluded1_surfaces(scene, f, u, o, d, tnear, tfar, time):
+    """`occluded1` against surfaces only (ray mask MASK_SURFACES: light shapes do not occlude)."""
+    _set_ray(f, u, o, d, tnear, tfar, time)
+    u[MASK] = MASK_SURFACES
     rtcOccluded1(scene, f.ctypes.data, 0)
     return f[TFAR] == -np.inf
 

@@ -43,8 +43,10 @@ def _probe(scene, origins, dirs, time):
 
 
 @numba.njit
-def _occluded(scene, o, d, tfar):
+def _occluded(scene, o, d, tfar, surfaces_only=False):
     f, u = trace.new_ray_buffer()
+    if surfaces_only:           # ray mask MASK_SURFACES (1)
+        return trace.occluded1_surfaces(scene, f, u, (o[0], o[1], o[2]), (d[0], d[1], d[2]), 0.0, tfar, 0.0)
     return trace.occluded1(scene, f, u, (o[0], o[1], o[2]), (d[0], d[1], d[2]), 0.0, tfar, 0.0)
 
 
@@ -138,6 +140,23 @@ def test_instance_array_of_three_triangle_prototypes(dev):
         np.testing.assert_allclose(uvs, np.tile(uv, (4, 1)), atol=1e-6)
     t, _, _, ids = probe(top, [0.5, 0.5, 5.0], [0, 0, -1])    # row 0 = prototype 2: its sphere first
     assert ids[0].tolist() == [0, 1, 0, 0] and abs(t[0] - 4.25) < 1e-6
+
+
+def test_an_instance_array_of_one_instance_instances_its_own_prototype(dev):
+    """Embree 4.4 ignores the index buffer of a one-instance array (it instances the first scene of the
+    list): top_scene gives such a group a list of its one prototype.  Two one-instance groups of
+    prototypes 2 and 1, and the masks a group may carry (shadow rays of mask 1 pass a group of mask 2)."""
+    vertices, triangles = SQUARE
+    protos = [dev.prototype_scene([(vertices - [0, 0, p], triangles)], []) for p in range(3)]
+    top = dev.top_scene(protos, [InstanceGroup(np.array([2], np.uint32), translation(0.0)[None, None]),
+                                 InstanceGroup(np.array([1], np.uint32), translation(10.0)[None, None])],
+                        masks=[1, 2])
+    t, _, _, ids = probe(top, [[0.5, 0.25, 5.0], [10.5, 0.25, 5.0]], [0, 0, -1])
+    np.testing.assert_allclose(t, [7.0, 6.0], rtol=1e-6)            # squares at z = -2 and z = -1
+    assert ids[:, 2].tolist() == [0, 1]
+    assert _occluded(top.handle, [0.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0, surfaces_only=True)
+    assert not _occluded(top.handle, [10.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0, surfaces_only=True)
+    assert _occluded(top.handle, [10.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0)
 
 
 def test_ng_is_in_object_space(dev):
