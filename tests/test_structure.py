@@ -20,10 +20,7 @@ MODULE_EXCEPTIONS = {
     'compiler/xml_reader.py': 'the course-XML reader, owned by the compiler work of this round (split pending)',
 }
 # (path, function) -> reason (functions over MAX_FUNCTION_LINES)
-FUNCTION_EXCEPTIONS = {
-    ('renderer/kernel/path.py', 'trace_path'): 'the path integrator of this round, written in parallel with the '
-                                              'records work: its bounce loop is still one function (split pending)',
-}
+FUNCTION_EXCEPTIONS = {}
 # (path, function) -> reason (numba functions over MAX_KERNEL_PARAMS)
 KERNEL_EXCEPTIONS = {
     ('renderer/kernel/bsdf.py', 'course_bsdf'): 'one argument per course shader parameter (kd, ks, exponent, mirror, '
