@@ -1,6 +1,7 @@
 """Render the README gallery: every scene in scenes/ and a contact sheet of the course's own scenes.
 
     python docs/make_gallery.py [--spp 64] [--width 320] [--height 240]
+    python docs/make_gallery.py --integrator path --spp 256        # docs/gallery/path/: the path tracer's view
 
 Each image goes through the real command line (`rtc render scene.xml -o docs/gallery/NAME.png`),
 so the gallery is also an end-to-end check that every example scene compiles and renders.
@@ -45,6 +46,8 @@ def main() -> None:
     ap.add_argument('--width', type=int, default=320)
     ap.add_argument('--height', type=int, default=240)
     ap.add_argument('--course', action='store_true', help='also render the course scenes (contact sheet)')
+    ap.add_argument('--integrator', choices=['cook', 'path'], default=None,
+                    help='path: every scene with the path tracer, sRGB-encoded, into docs/gallery/path/')
     ap.add_argument('--course-look', action='store_true',
                     help='only the "course look" row: course scenes as rtc renders them by default (the '
                          "course's linear 8-bit encoding and light semantics) beside sRGB-encoded")
@@ -53,9 +56,15 @@ def main() -> None:
     if a.course_look:
         course_look(a.spp)
         return
+    out_dir, extra = OUT, ()
+    if a.integrator == 'path':
+        out_dir, extra = OUT / 'path', ('--integrator', 'path', '--encoding', 'srgb')
+        out_dir.mkdir(exist_ok=True)
     for scene in sorted((ROOT / 'scenes').glob('*.xml')):
-        out = OUT / f'{scene.stem}.png'
-        print(f'{scene.name} -> {out.relative_to(ROOT)} ({render(scene, out, a.width, a.height, a.spp)} bytes)')
+        out = out_dir / f'{scene.stem}.png'
+        print(f'{scene.name} -> {out.relative_to(ROOT)} ({render(scene, out, a.width, a.height, a.spp, *extra)} bytes)')
+    if a.integrator == 'path':
+        return
     if a.course and COURSE.exists():
         tmp = OUT / 'course'
         tmp.mkdir(exist_ok=True)
