@@ -111,7 +111,7 @@ def bench_scene(path: str, a) -> dict:
     row['load_s'] = time.perf_counter() - t0
     row['rss_load_mb'] = peak_rss_mb()
     opts = RenderOptions(width=a.width, height=a.height, spp=a.spp, seed=a.seed, sampler=a.sampler,
-                         max_depth=a.max_depth)
+                         max_depth=a.max_depth, integrator=a.integrator, filter=a.filter)
     opts = resolve(opts, desc.settings)
     t0 = time.perf_counter()
     r = Renderer(desc, threads=a.threads)
@@ -123,10 +123,11 @@ def bench_scene(path: str, a) -> dict:
     row['warmup_s'] = time.perf_counter() - t0
 
     rays = None if a.no_replay else recorded_rays(r, opts, a.record_spp, a.record_cap)
+    handle = r.path_scene() if opts.integrator == 'path' else r.built.handle        # what the renderer traces
     if rays is not None:
         for packets in (False, True):                                 # load/compile the replay kernels
             for kind, rk in rays.items():
-                replay(r.built.handle, kind, tuple(x[:64] for x in rk), packets)
+                replay(handle, kind, tuple(x[:64] for x in rk), packets)
     render_s, first_s, res = [], [], None
     ratios = {'single': [], 'traced': [], 'packets': []}
     traced_s = []
@@ -144,7 +145,7 @@ def bench_scene(path: str, a) -> dict:
         for packets in (False, True):
             for kind, rk in rays.items():
                 if len(rk[0]):
-                    rate[kind, packets] = len(rk[0]) / max(replay(r.built.handle, kind, rk, packets), 1e-12)
+                    rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets), 1e-12)
                     rates[kind, packets].append(rate[kind, packets])
         bare = {name: sum(n_of[k] / rate[k, p(k)] for k in KINDS if (k, False) in rate)
                 for name, p in (('single', lambda k: False), ('traced', lambda k: k in PACKETED),
@@ -172,9 +173,9 @@ def bench_scene(path: str, a) -> dict:
         sc = {1: [], 2: []}
         for _ in range(a.rounds):
             for nt in (1, 2):
-                numba.set_num_threads(nt)
+                r.threads = nt
                 sc[nt].append(r.render(opts).stats.seconds)
-        numba.set_num_threads(a.threads or numba.config.NUMBA_NUM_THREADS)
+        r.threads = a.threads
         row['scaling'] = statistics.median(t1 / t2 for t1, t2 in zip(sc[1], sc[2]))
         row['render_1t_s'] = statistics.median(sc[1])
         row['render_2t_s'] = statistics.median(sc[2])
@@ -213,6 +214,8 @@ def main(argv=None) -> int:
     ap.add_argument('--sampler', default='sobol')
     ap.add_argument('--seed', type=int, default=7)
     ap.add_argument('--max-depth', type=int, default=4)
+    ap.add_argument('--integrator', choices=['cook', 'path'], default=None, help="default: the stage's")
+    ap.add_argument('--filter', default='gaussian')
     ap.add_argument('--threads', type=int, default=None)
     ap.add_argument('--rounds', type=int, default=3)
     ap.add_argument('--record-spp', type=int, default=16, help='samples per pixel recorded for the replay')

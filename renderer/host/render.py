@@ -130,20 +130,20 @@ class Renderer:
         """Add samples [s0, s1) of every pixel of `window` (x0, y0, x1, y1; None: the whole image) to `sums`
         (window height, width, 3) float64 with the integrator of resolved options `o`, on every render
         thread; `counters` int64 (n_tiles of the whole image, N_COUNTERS); `ray_record`: None, or a
-        `ray_record.RayRecord` that receives every ray (cook only: benchmarks)."""
+        `ray_record.RayRecord` that receives every ray (benchmarks)."""
         pp = self.pass_params(o, s0, s1, setup.ctab, setup.use_lens, setup.use_time, window)
         n = self.n_threads() if s1 > s0 else 1
         while len(self._scratch) < n:
             self._scratch.append(new_scratch(len(self.built.data.li_type)))
         work = np.zeros(1, np.int64)             # the pass's tile counter (tiles.next_tile)
         data, handle, scratch, entry = self.built.data, self.built.handle, self._scratch, setup.entry
+        if ray_record is not None:
+            scratch = [s._replace(rec=ray_record) for s in scratch]
         if o.integrator == 'path':
-            if ray_record is not None:
-                raise RenderError('ray recording is available for the cook integrator only')
             lights, handle = self.path_lights(), self.path_scene()
             self._on_threads(n, lambda t: entry(data, lights, handle, pp, scratch[t], work, sums, counters))
         else:
-            self._on_threads(n, lambda t: entry(data, handle, pp, scratch[t], work, sums, counters, ray_record))
+            self._on_threads(n, lambda t: entry(data, handle, pp, scratch[t], work, sums, counters))
 
     def n_threads(self) -> int:
         """Render threads: the Renderer's `threads`, else numba's thread count (NUMBA_NUM_THREADS, or

@@ -21,8 +21,9 @@ count, and passes of samples add up exactly to one render.
 The kernels pass named records (`records.py`): a pass's `PassParams`, a path's `Path` (its
 `SampleKey`, packet lane and time), `ShadingPoint`s, the `PathState` (radiance, throughput, medium),
 the per-thread `Tracer` (Embree scene, ray buffer, counters, the first-hit `ShadowQueue`) and the
-camera stage's `Lanes`.  The sample dimensions come from `dimensions.py`.  `rec`: None (every render),
-or a `ray_record.RayRecord` that receives every ray traced (benchmarks; pruned at compile time).
+camera stage's `Lanes`.  The sample dimensions come from `dimensions.py`.  `Tracer.rec`: None (every
+render), or a `ray_record.RayRecord` that receives every ray traced (benchmarks; `record_if` compiles to
+nothing when it is None).
 """
 import math
 
@@ -38,7 +39,7 @@ from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
-from .ray_record import record
+from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
@@ -79,7 +80,7 @@ def new_scratch(n_lights):
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
     return Scratch(alloc_packet16(), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
-                   queue, lanes)
+                   queue, lanes, None)
 
 
 @nb.njit(**STAGE_JIT)
@@ -94,7 +95,7 @@ def _first_hit_light_samples(S, pp, lanes, n, light_u):
 
 
 @nb.njit(**STAGE_JIT)
-def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
+def render_tile(S, tr, pp, tile, packet, lanes, accum):
     """Add samples [pp.s0, pp.s1) of the pixels of `tile` to `accum`.
 
     The tile's (pixel, sample) pairs, pixel-major, are traced 16 at a time: their camera rays as one
@@ -123,16 +124,15 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum, rec):
             _first_hit_light_samples(S, pp, lanes, n, tr.queue.light_u)
         camera_rays_into(pp, lanes, packet, n)
         for j in range(n):
-            if rec is not None:
-                record(rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
-                       cam[C_NEAR], cam[C_FAR], lane_t[j])
+            record_if(tr.rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
+                      cam[C_NEAR], cam[C_FAR], lane_t[j])
             for k in range(3):
                 ldir[j, k] = 0.0
         intersect16(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         for j in range(n):
             path = Path(SampleKey(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp), j, lane_t[j])
-            r, g, bl = trace_path(S, tr, rec, path, Ray((lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j])),
+            r, g, bl = trace_path(S, tr, path, Ray((lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j])),
                                   pp.max_depth, packet)
             lanes.L[j, 0] = r
             lanes.L[j, 1] = g
@@ -229,7 +229,7 @@ def _light_sample(S, path, depth, k, n_lights, queue):
 
 
 @nb.njit(**STAGE_JIT)
-def _direct_light(S, tr, rec, path, sp, depth, state):
+def _direct_light(S, tr, path, sp, depth, state):
     """Direct light at a shading point, one sample per light (soft shadows from area lights), added
     to the radiance state.L with throughput state.T; returns the new L.  At the first hit (depth 0)
     the shadow rays go to the packet queue and their contributions to the lane's first-hit light
@@ -254,8 +254,7 @@ def _direct_light(S, tr, rec, path, sp, depth, state):
         else:
             tr.counts[RAYS_SHADOW] += 1
             smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-            if rec is not None:
-                record(rec, tr.tile, RAYS_SHADOW_PACKET if depth == 0 else RAYS_SHADOW, po, wi, 0.0, smax, time)
+            record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET if depth == 0 else RAYS_SHADOW, po, wi, 0.0, smax, time)
             if depth == 0:               # first hit: traced later, in a packet
                 tr.counts[RAYS_SHADOW_PACKET] += 1
                 _enqueue_shadow(tr, path.lane, po, wi, smax, time, (tr_ * c[0], tg * c[1], tb * c[2]))
@@ -367,7 +366,7 @@ def _continuation(S, key, sp, dvec, depth, state):
 
 
 @nb.njit(**STAGE_JIT)
-def trace_path(S, tr, rec, path, ray, max_depth, packet):
+def trace_path(S, tr, path, ray, max_depth, packet):
     """Radiance arriving along the camera ray `ray` of `path` (lane path.lane of the traced camera
     `packet`).  Its first hit's direct light is not included: those shadow rays go to the tracer's
     queue (`_enqueue_shadow`).  (Tracing the first bounce's continuation rays of a packet as one more
@@ -385,8 +384,7 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
         if depth == 0:                     # traced in the camera packet: copy the lane's hit
             hit = lane_hit(packet, path.lane, tr.f, tr.u)
         else:
-            if rec is not None:
-                record(rec, tr.tile, RAYS_SECONDARY, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf, time)
+            record_if(tr.rec, tr.tile, RAYS_SECONDARY, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf, time)
             hit = intersect1(tr.scene, tr.f, tr.u, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf, time)
             tr.counts[RAYS_SECONDARY] += 1
         dvec = (float(dx), float(dy), float(dz))
@@ -417,7 +415,7 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
                 Lg += tg * mf[mat, MF_EMIT + 1]
                 Lb += tb * mf[mat, MF_EMIT + 2]
         if has_diffuse_lobe(sp.model):
-            Lr, Lg, Lb = _direct_light(S, tr, rec, path, sp, depth, PathState((Lr, Lg, Lb), (tr_, tg, tb), (ar, ag, ab)))
+            Lr, Lg, Lb = _direct_light(S, tr, path, sp, depth, PathState((Lr, Lg, Lb), (tr_, tg, tb), (ar, ag, ab)))
         if depth == max_depth:
             break
         nxt = _continuation(S, key, sp, dvec, depth, PathState((Lr, Lg, Lb), (tr_, tg, tb), (ar, ag, ab)))
@@ -433,13 +431,14 @@ def trace_path(S, tr, rec, path, ray, max_depth, packet):
 
 
 @nb.njit(**KERNEL_JIT)
-def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
+def render_tiles(S, scene, pp, scratch, work, accum, counters):
     """Add samples [pp.s0, pp.s1) of the tiles of the pass's window this thread claims to `accum`
     (window height, width, 3) float64: the host runs it on every render thread at once, each with its own
     `Scratch`; `work` (int64 [1]) is the pass's shared tile counter (`tiles.claim_tile`: the next
     unclaimed tile, atomically), so threads share the tiles dynamically.  pp: `PassParams`; counters: int64
-    (n_tiles, N_COUNTERS), one row per tile (no shared writes).  rec: None, or a `ray_record.RayRecord`
-    that receives every ray traced.  Which thread renders a tile changes nothing in it: images are bit-identical for any thread count."""
+    (n_tiles, N_COUNTERS), one row per tile (no shared writes).  scratch.rec: None, or a
+    `ray_record.RayRecord` that receives every ray traced.  Which thread renders a tile changes nothing
+    in it: images are bit-identical for any thread count."""
     counts = scratch.counts
     while True:
         tile = claim_tile(pp, work)
@@ -447,7 +446,8 @@ def render_tiles(S, scene, pp, scratch, work, accum, counters, rec):
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index)
-        render_tile(S, tr, pp, tile, scratch.packet, scratch.lanes, accum, rec)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
+                    scratch.rec)
+        render_tile(S, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

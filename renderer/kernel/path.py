@@ -42,9 +42,10 @@ from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RA
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import choose_light, escaped_emission, sample_ld, shape_emission
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
+from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
-from .tables import MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
 from .tiles import claim_tile
 from .trace import GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, intersect1, intersect16, lane_hit, occluded1_surfaces
 from .vecmath import dot, offset_origin, onb, to_world
@@ -94,6 +95,7 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
     w = 1.0 if (delta or strategy == NEE_ONLY) else pl * pl / (pl * pl + pb * pb)
     tr.counts[RAYS_SHADOW] += 1
     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
+    record_if(tr.rec, tr.tile, RAYS_SHADOW, vtx.po, wi, 0.0, smax, vtx.time)
     if occluded1_surfaces(tr.scene, tr.f, tr.u, vtx.po, wi, 0.0, smax, vtx.time):
         return BLACK
     s = w / pl
@@ -123,6 +125,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
     if v == 0:
         hit = lane_hit(packet, path.lane, tr.f, tr.u)
     else:
+        record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, 0.0, np.inf, path.time)
         hit = intersect1(tr.scene, tr.f, tr.u, o, d, 0.0, np.inf, path.time)
         tr.counts[RAYS_SECONDARY] += 1
     e = BLACK
@@ -134,7 +137,9 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
             k = L.prim_light[L.geom_off[tr.u[GEOM_ID]] + tr.u[PRIM_ID]]
             c = shape_emission(S, L, k, ray, te, prev)
             e = (e[0] + c[0], e[1] + c[1], e[2] + c[2])
-            hit = intersect1(tr.scene, tr.f, tr.u, o, d, te + 1e-5 * max(te, 1e-3), np.inf, path.time)
+            tn = te + 1e-5 * max(te, 1e-3)
+            record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, tn, np.inf, path.time)
+            hit = intersect1(tr.scene, tr.f, tr.u, o, d, tn, np.inf, path.time)
             tr.counts[RAYS_SECONDARY] += 1
     return hit, (float(tr.f[TFAR]) if hit else np.inf), e
 
@@ -234,6 +239,9 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
         n, cursor = next_samples(pp, tile, lanes, first, cursor)
         camera_samples(pp, lanes, n)
         camera_rays_into(pp, lanes, packet, n)
+        for j in range(n):
+            record_if(tr.rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
+                      pp.cam[C_NEAR], pp.cam[C_FAR], lanes.time[0, j])
         intersect16(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         for j in range(n):
@@ -264,7 +272,8 @@ def render_tiles_path(S, L, scene, pp, scratch, work, accum, counters):
             break
         for k in range(N_COUNTERS):
             counts[k] = 0
-        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index)
+        tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
+                    scratch.rec)
         path_tile(S, L, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

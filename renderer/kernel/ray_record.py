@@ -1,7 +1,7 @@
 """The ray recorder: every ray a render traces, for benchmarks/bench_render.py, which replays the
 renderer's own rays on bare Embree to separate Embree's time from the shading's.
 
-`integrator.render_tiles(..., rec)` (`Renderer.run_pass(..., ray_record=rec)`) with
+`Renderer.run_pass(..., ray_record=rec)` (the kernels' `Scratch.rec`, both integrators) with
 `rec = new_ray_record(n_tiles, cap)` records; with `rec=None` (every
 render) numba compiles a specialisation in which each `if rec is not None:` branch is pruned before
 type inference, so rendering pays nothing for the feature (measured: benchmarks/RESULTS.md).
@@ -10,6 +10,8 @@ from collections import namedtuple
 
 import numba as nb
 import numpy as np
+from numba import types
+from numba.extending import overload
 
 from .jit import INLINE_JIT
 
@@ -45,3 +47,15 @@ def record(rec, tile, kind, o, d, tnear, tfar, time):
         r[tile, n, R_TIME] = time
         rec.kind[tile, n] = kind
     rec.count[tile] = n + 1
+
+
+def record_if(rec, tile, kind, o, d, tnear, tfar, time):
+    """`record` when `rec` is a RayRecord; nothing at all (no code, no test) when it is None: for kernels
+    that carry the record in a record (`Tracer.rec`), where numba cannot prune `if tr.rec is not None`."""
+
+
+@overload(record_if, jit_options=dict(cache=True, nogil=True, _nrt=False))
+def _record_if(rec, tile, kind, o, d, tnear, tfar, time):
+    if isinstance(rec, types.NoneType):
+        return lambda rec, tile, kind, o, d, tnear, tfar, time: None
+    return lambda rec, tile, kind, o, d, tnear, tfar, time: record(rec, tile, kind, o, d, tnear, tfar, time)

@@ -11,9 +11,10 @@ Per thread (allocated once per tile by `render_pass`; the shading code allocates
     ShadowQueue     first-hit shadow rays waiting to be traced as one rtcOccluded16 packet
     Lanes           the camera stage's per-lane state (structure of arrays, so that loops vectorise)
     Scratch         one render thread's arrays, allocated by the host (`integrator.new_scratch`): the camera
-                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes
+                    packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes,
+                    and the ray record of the pass (None: every render; a `ray_record.RayRecord`: benchmarks)
     Tracer          what tracing a path needs besides the scene tables: the Embree scene, the single-ray
-                    buffer, matrix scratch, ray counters, the shadow queue and the tile index
+                    buffer, matrix scratch, ray counters, the shadow queue, the tile index and the ray record
 Per path and bounce
     SampleKey       (sampler, seed, pixel, index, spp): which sample's random numbers a path draws
     Path            a path's sample key, its lane in the camera packet and its shutter time
@@ -38,8 +39,8 @@ Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
 Packet = namedtuple('Packet', ['valid', 'f', 'u'])
 ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
 Lanes = namedtuple('Lanes', ['o', 'd', 'time', 'ids', 'L', 'u', 'film', 'key32', 'work'])
-Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes'])
-Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile'])
+Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes', 'rec'])
+Tracer = namedtuple('Tracer', ['scene', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'tile', 'rec'])
 SampleKey = namedtuple('SampleKey', ['sampler', 'seed', 'pixel', 'index', 'spp'])
 Path = namedtuple('Path', ['key', 'lane', 'time'])
 Ray = namedtuple('Ray', ['o', 'd'])
