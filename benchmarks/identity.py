@@ -56,6 +56,10 @@ def scenes(quick: bool) -> list[Path]:
 
 
 def export(rev: str, dest: Path) -> Path:
+    """REV's sources, importable from the returned folder.  Since the one-namespace layout (rtc/ beside
+    compiler/ and renderer/, mapped into `rtc` by pyproject.toml) they are laid out as installed: with the
+    raw tree on PYTHONPATH, `rtc` would come from it but `rtc.renderer` from the editable install's finder,
+    i.e. from the working tree, and the comparison would compare the working tree with itself."""
     tree = dest / 'tree'
     if not tree.is_dir():
         tree.mkdir(parents=True)
@@ -64,17 +68,22 @@ def export(rev: str, dest: Path) -> Path:
             f.write(data)
             f.seek(0)
             tarfile.open(fileobj=f).extractall(tree, filter='data')
+    if (tree / 'rtc' / '__init__.py').exists() and not (tree / 'rtc' / 'renderer').exists():
+        laid = dest / 'installed'
+        if not laid.is_dir():
+            snapshot(laid, tree)
+        return laid
     return tree
 
 
-def snapshot(dest: Path) -> Path:
-    """A copy of the working tree's packages laid out as installed: rtc/, rtc/compiler, rtc/renderer."""
+def snapshot(dest: Path, src: Path = ROOT) -> Path:
+    """A copy of a source tree's packages laid out as installed: rtc/, rtc/compiler, rtc/renderer."""
     ignore = shutil.ignore_patterns('__pycache__', '*.pyc')
-    shutil.copytree(ROOT / 'rtc', dest / 'rtc', ignore=ignore)
-    shutil.copytree(ROOT / 'compiler', dest / 'rtc' / 'compiler', ignore=ignore)
-    shutil.copytree(ROOT / 'renderer', dest / 'rtc' / 'renderer', ignore=ignore)
-    if (ROOT / 'schemas').is_dir():             # compiler/schema.py finds them next to its package
-        shutil.copytree(ROOT / 'schemas', dest / 'rtc' / 'schemas')
+    shutil.copytree(src / 'rtc', dest / 'rtc', ignore=ignore)
+    shutil.copytree(src / 'compiler', dest / 'rtc' / 'compiler', ignore=ignore)
+    shutil.copytree(src / 'renderer', dest / 'rtc' / 'renderer', ignore=ignore)
+    if (src / 'schemas').is_dir():             # compiler/schema.py finds them next to its package
+        shutil.copytree(src / 'schemas', dest / 'rtc' / 'schemas')
     return dest
 
 
@@ -82,7 +91,12 @@ def render(tree: Path | None, scene: Path, sampler: str, threads: int, out: Path
     env = dict(os.environ)
     if tree is not None:
         env['PYTHONPATH'] = str(tree)
-    cmd = [sys.executable, '-c', 'import sys; from rtc.cli import main; sys.exit(main())', 'render', str(scene),
+    # the renderer imported must be the tree's (a check that the comparison compares two versions)
+    check = ''
+    if tree is not None:
+        mod = 'rtc.renderer' if (tree / 'rtc' / 'renderer').is_dir() else 'renderer'
+        check = f'import os, {mod} as m; assert m.__file__.startswith({str(tree)!r}), m.__file__; '
+    cmd = [sys.executable, '-c', check + 'import sys; from rtc.cli import main; sys.exit(main())', 'render', str(scene),
            '-o', str(out), '--width', str(size), '--spp', str(spp), '--sampler', sampler,
            '--threads', str(threads), '--seed', '7', '-q']
     if '--encoding' in subprocess.run(cmd[:3] + ['render', '--help'], env=env, capture_output=True,
