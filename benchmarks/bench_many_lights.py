@@ -88,6 +88,7 @@ def main(argv=None) -> int:
     ap.add_argument('--lights', type=int, default=1000)
     ap.add_argument('--spp', type=int, default=8)
     ap.add_argument('--repeats', type=int, default=3)
+    ap.add_argument('--ref-spp', type=int, default=256, help='samples of each scene\'s own reference')
     a = ap.parse_args(argv)
     from rtc.renderer.host.render import RenderOptions, Renderer
     from rtc.renderer.usd.stage import read_stage
@@ -111,6 +112,17 @@ def main(argv=None) -> int:
     for n in rs:
         print(f'  {n:5d} lights: {med[n] * 1e3:.1f} ms per sample per pixel (median of {a.repeats})')
     print(f'  ratio {a.lights} / 1 lights: {med[a.lights] / med[1]:.2f}  (target <= 2)')
+    # noise: each scene against a reference of itself (other seeds), relative RMSE at a.spp, mean of seeds
+    err = {}
+    for n, r in rs.items():
+        ref = r.render(RenderOptions(spp=a.ref_spp, seed=1000, integrator='path', max_depth=3)).image.astype(np.float64)
+        e = [np.sqrt(np.mean((r.render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path', max_depth=3)).image
+                              - ref) ** 2)) / ref.mean() for k in range(a.repeats)]
+        err[n] = float(np.sqrt(np.mean(np.square(e))))
+        print(f'  {n:5d} lights: relative RMSE at {a.spp} spp {err[n]:.4f} (reference {a.ref_spp} spp)')
+    print(f'  noise ratio {a.lights} / 1 lights: {err[a.lights] / err[1]:.2f}  (target: not worse, <= 1)')
+    for r in rs.values():
+        r.close()
     return 0
 
 

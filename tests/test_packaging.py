@@ -3,6 +3,7 @@ rtc.renderer (renderer/) and the XML schema (schemas/scene.xsd), nothing else.""
 from __future__ import annotations
 
 import os
+import shutil
 import subprocess
 import sys
 import zipfile
@@ -16,8 +17,13 @@ MAPPED = {'rtc': 'rtc', 'compiler': 'rtc/compiler', 'renderer': 'rtc/renderer'}
 
 @pytest.fixture(scope='module')
 def wheel(tmp_path_factory) -> Path:
+    """The wheel built from a copy of the source tree without build products (a stale `build/` of an
+    earlier wheel would add the files it still holds)."""
     out = tmp_path_factory.mktemp('wheel')
-    r = subprocess.run([sys.executable, '-m', 'pip', 'wheel', str(REPO), '--no-deps', '-q', '-w', str(out)],
+    src = tmp_path_factory.mktemp('src') / 'rtc'
+    shutil.copytree(REPO, src, ignore=shutil.ignore_patterns('build', '*.egg-info', '.venv', '.git', '.identity',
+                                                             '__pycache__', '.pytest_cache', '.hypothesis'))
+    r = subprocess.run([sys.executable, '-m', 'pip', 'wheel', str(src), '--no-deps', '-q', '-w', str(out)],
                        capture_output=True, text=True, timeout=600)
     assert r.returncode == 0, r.stderr[-3000:]
     (path,) = out.glob('rtc-*.whl')
