@@ -32,6 +32,7 @@ from .features import ALL, FEATURE_NAMES, Features
 _LOCK = threading.Lock()
 _TWINS: dict = {}              # (id of the general dispatcher, features key) -> twin dispatcher
 _DEPENDS: dict = {}            # id of a dispatcher -> whether it depends on a feature constant
+SHARED = 'shared'              # the key of the twins of functions that test no feature (every specialisation's)
 
 
 def _names(code) -> set:
@@ -59,7 +60,9 @@ def depends(disp) -> bool:
     return _DEPENDS[key]
 
 
-def _twin(disp, features: Features, consts: dict, key: str):
+def _twin(disp, consts: dict, key: str, entry: bool = False):
+    """The twin of `disp` for feature constants `consts` named by `key` (None: a function that tests no
+    feature, whose twin differs from it only in having no Python entry)."""
     tk = (id(disp), key)
     if tk in _TWINS:
         return _TWINS[tk]
@@ -67,13 +70,15 @@ def _twin(disp, features: Features, consts: dict, key: str):
     g = dict(py.__globals__)
     g.update(consts)
     for name, callee in callees(disp).items():
-        if depends(callee):
-            g[name] = _twin(callee, features, consts, key)
+        g[name] = _twin(callee, consts, key) if depends(callee) else _twin(callee, {}, SHARED)
     fn = pytypes.FunctionType(py.__code__, g, py.__name__, py.__defaults__, py.__closure__)
     fn.__qualname__ = f'{py.__qualname__}__{key}'
     fn.__module__ = py.__module__
     fn.__doc__ = py.__doc__
     options = {k: v for k, v in disp.targetoptions.items() if k != 'nopython'}      # njit's own
+    # only the entry point is called from Python: its callees need neither a CPython wrapper nor a C
+    # callable wrapper, which numba would otherwise compile for each (~1/3 of a small function's compile)
+    options.update(no_cfunc_wrapper=True, **({} if entry else {'no_cpython_wrapper': True}))
     twin = numba.njit(**options)(fn)
     if isinstance(disp._cache, FunctionCache):
         twin.enable_caching()
@@ -89,4 +94,4 @@ def specialize(entry, features: Features | None):
     with _LOCK:
         if not depends(entry):
             return entry
-        return _twin(entry, features, features.constants(), features.key())
+        return _twin(entry, features.constants(), features.key(), entry=True)

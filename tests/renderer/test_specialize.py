@@ -64,7 +64,11 @@ def test_functions_that_test_no_feature_are_shared():
     assert specialize(samplers.sample_2d, None) is samplers.sample_2d
     twin = specialize(samplers.sample_2d, _only(samplers=F.B_SOBOL))
     assert twin is specialize(samplers.sample_2d, _only(samplers=F.B_SOBOL))          # made once
-    assert twin.py_func.__globals__['sobol_sample_2d'] is samplers.sobol_sample_2d
+    shared = twin.py_func.__globals__['sobol_sample_2d']                 # one twin for every feature set,
+    assert shared.py_func.__code__ is samplers.sobol_sample_2d.py_func.__code__      # without a Python entry
+    assert shared is specialize(samplers.sample_2d, _only(samplers=F.B_SOBOL, lens=False)).py_func.__globals__[
+        'sobol_sample_2d']
+    assert shared.targetoptions.get('no_cpython_wrapper') and not twin.targetoptions.get('no_cpython_wrapper')
     assert twin.py_func.__qualname__.startswith('sample_2d__')
 
 
