@@ -1,10 +1,11 @@
-"""The lights as the path integrator samples them: one light per shading point, chosen by power
-from an alias table (Walker 1977; Vose 1991), so the cost of a sample does not grow with the number
-of lights; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
+"""The lights as the path integrator samples them: one light per shading point, chosen from the
+light tree (`light_tree.py`: by power, distance and orientation, in O(log n)), so the cost of a sample
+grows only with the logarithm of the number of lights and far or turned-away lights are rarely
+chosen; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
 O(log n) per ray, found by the same query as the surfaces: `build.top_with_light_shapes`; the cook
 integrator never builds it); the dome's sampling tables.
 
-Power estimates (only their ratios matter, and any positive choice keeps the estimator unbiased):
+Power estimates (the tree's phi; only ratios matter, and any positive choice keeps the estimator unbiased):
 point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
 (texture mean) with R the radius of the scene's bounds, luminances of the RGB values.
 """
@@ -17,30 +18,12 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
+from .light_tree import light_tree
 
-PathLights = namedtuple('PathLights', ['prob', 'alias', 'pmf', 'shapes', 'infinite', 'has_dome', 'dome_i',
-                                       'dome_cdf', 'light_group', 'geom_off', 'prim_light'])
+PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
+                                       'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
+                                       'prim_light'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
-
-
-def alias_table(weights: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(prob, alias, pmf) of Vose's alias method for non-negative weights (uniform if all are 0):
-    draw i = floor(u n), keep it if frac(u n) < prob[i], else take alias[i]."""
-    w = np.asarray(weights, np.float64)
-    n = len(w)
-    pmf = w / w.sum() if w.sum() > 0 else np.full(n, 1.0 / n)
-    scaled = pmf * n
-    prob = np.ones(n)
-    alias = np.arange(n, dtype=np.int64)
-    small = [i for i in range(n) if scaled[i] < 1.0]
-    large = [i for i in range(n) if scaled[i] >= 1.0]
-    while small and large:
-        s, g = small.pop(), large.pop()
-        prob[s] = scaled[s]
-        alias[s] = g
-        scaled[g] -= 1.0 - scaled[s]
-        (small if scaled[g] < 1.0 else large).append(g)
-    return prob, alias, pmf
 
 
 def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
@@ -100,15 +83,15 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
     dome_i, dome_cdf, dome_mean = dome_tables(desc)
-    prob, alias, pmf = alias_table(light_power(desc, li_f, max(radius, 1e-30), dome_mean))
+    tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
+        desc, li_f, light_power(desc, li_f, max(radius, 1e-30), dome_mean))
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE)]
     infinite = [k for k, l in enumerate(desc.lights)
                 if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
-    if not desc.lights:                      # no light at all: nothing is ever chosen (pmf unused)
-        pmf[:] = 0.0
     scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)
-    return PathLights(prob=prob, alias=alias, pmf=pmf, shapes=np.array(shapes, np.int64),
+    return PathLights(tree_f=tree_f, tree_i=tree_i, trail=trail, depth=depth, unbounded=unbounded, n_bounded=n_bounded,
+                      shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
                       dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if scene else -1,
                       geom_off=geom_off, prim_light=prim_light), scene

@@ -17,8 +17,8 @@ sees them, camera rays included (UsdLux gives lights no camera-visibility attrib
 what the light emits towards the camera, as Mitsuba and Karma do by default); the cook integrator
 does not see light shapes at all.
 
-`L` is the `PathLights` record of `host/light_selection.py` (the alias table that picks a light by
-power, the pmf, the list of light shapes, the dome tables).
+`L` is the `PathLights` record of `host/light_selection.py` (the light tree that picks a light,
+`kernel/light_tree.py`, the pmf, the list of light shapes, the dome tables).
 """
 import math
 
@@ -26,6 +26,7 @@ import numba as nb
 
 from .. import description as D
 from .features import B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
+from .light_tree import light_pmf
 from .lights import dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
@@ -38,18 +39,6 @@ NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
 @nb.njit(**_JIT)
 def _col(lf, k, j):
     return (lf[k, LF_M + j], lf[k, LF_M + 4 + j], lf[k, LF_M + 8 + j])
-
-
-@nb.njit(**_JIT)
-def choose_light(L, u):
-    """(light index, its probability) from the alias table, for u in [0, 1)."""
-    n = L.alias.shape[0]
-    x = u * n
-    i = min(int(x), n - 1)
-    if x - i < L.prob[i]:
-        return i, L.pmf[i]
-    j = L.alias[i]
-    return j, L.pmf[j]
 
 
 @nb.njit(**_JIT)
@@ -289,7 +278,7 @@ def shape_emission(S, L, k, ray, te, prev):
     t, pl = hit_shape(S, k, o, d, INF, p0)
     if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
         return ZERO
-    w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
+    w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
     return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
 
 
@@ -321,7 +310,7 @@ def escaped_emission(S, L, d, prev):
             omega = 2.0 * math.pi * (1.0 - cos_max)
             Le = (lf[k, LF_RAD] / omega, lf[k, LF_RAD + 1] / omega, lf[k, LF_RAD + 2] / omega)
             pl = 1.0 / omega
-        w = 1.0 if mode == 1 else _power(pb, L.pmf[k] * pl)
+        w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
         r += w * Le[0]
         g += w * Le[1]
         b += w * Le[2]

@@ -1,0 +1,136 @@
+"""Choosing the light of a light sample from the light tree (`host/light_tree.py`; Conty Estevez &
+Kulla 2018, pbrt-v4's BVHLightSampler): a walk from the root that takes each child with probability
+proportional to its importance at the shading point, and the probability of a given light there (for
+the MIS weight of a BSDF-sampled ray that finds it).  `L` is the `PathLights` record.
+"""
+import math
+
+import numba as nb
+
+from .jit import SHADING_INLINE_JIT as _JIT
+from .tables import T_C, T_COS_E, T_COS_O, T_HALF_DIAG, T_PHI, T_RADIUS, T_SIN_O, T_TWO_SIDED, T_W
+
+ONE_MINUS = 0.99999994
+
+
+@nb.njit(**_JIT)
+def _cos_sub(sa, ca, sb, cb):
+    """cos(max(0, a - b)) from the sines and cosines of angles a, b in [0, pi]."""
+    return 1.0 if ca > cb else ca * cb + sa * sb
+
+
+@nb.njit(**_JIT)
+def _sin_sub(sa, ca, sb, cb):
+    """sin(max(0, a - b))."""
+    return 0.0 if ca > cb else sa * cb - ca * sb
+
+
+@nb.njit(**_JIT)
+def importance(tf, node, p, n):
+    """Importance of tree node `node` (a row of tf = PathLights.tree_f) at point p with normal n: its
+    power over the squared distance, times upper bounds of the cosine at the lights (the angle between
+    the direction to p and the cone of emission normals, less the angle the node's bounding sphere
+    subtends) and of the cosine at the receiver."""
+    dx = p[0] - tf[node, T_C]
+    dy = p[1] - tf[node, T_C + 1]
+    dz = p[2] - tf[node, T_C + 2]
+    dd = dx * dx + dy * dy + dz * dz
+    d2 = max(dd, tf[node, T_HALF_DIAG])
+    r = tf[node, T_RADIUS]
+    if dd > r * r:                                   # outside the bounding sphere
+        inv = 1.0 / math.sqrt(dd)
+        wx, wy, wz = dx * inv, dy * inv, dz * inv
+        sin2_b = r * r / dd
+        cos_b = math.sqrt(max(0.0, 1.0 - sin2_b))
+        sin_b = math.sqrt(sin2_b)
+    else:                                            # inside: every direction
+        wx, wy, wz = 0.0, 0.0, 1.0
+        cos_b = -1.0
+        sin_b = 0.0
+    cos_w = tf[node, T_W] * wx + tf[node, T_W + 1] * wy + tf[node, T_W + 2] * wz
+    if tf[node, T_TWO_SIDED] != 0.0:
+        cos_w = abs(cos_w)
+    sin_w = math.sqrt(max(0.0, 1.0 - cos_w * cos_w))
+    cos_o = tf[node, T_COS_O]
+    sin_o = tf[node, T_SIN_O]
+    cos_x = _cos_sub(sin_w, cos_w, sin_o, cos_o)
+    sin_x = _sin_sub(sin_w, cos_w, sin_o, cos_o)
+    cos_p = _cos_sub(sin_x, cos_x, sin_b, cos_b)
+    if cos_p <= tf[node, T_COS_E]:
+        return 0.0
+    imp = tf[node, T_PHI] * cos_p / d2
+    cos_i = abs(wx * n[0] + wy * n[1] + wz * n[2])
+    sin_i = math.sqrt(max(0.0, 1.0 - cos_i * cos_i))
+    imp *= _cos_sub(sin_i, cos_i, sin_b, cos_b)
+    return max(imp, 0.0)
+
+
+@nb.njit(**_JIT)
+def _p_unbounded(L):
+    """Probability of choosing one of the lights without a position (dome, distant) at all."""
+    nu = L.unbounded.shape[0]
+    return nu / (nu + (1 if L.n_bounded > 0 else 0)) if nu > 0 else 0.0
+
+
+@nb.njit(**_JIT)
+def choose_light(L, p, n, u):
+    """(light index, its probability) for a light sample at point p with normal n, u in [0, 1); light
+    -1 (probability 0) when no light can light p."""
+    pu = _p_unbounded(L)
+    if u < pu:
+        nu = L.unbounded.shape[0]
+        return L.unbounded[min(int(u / pu * nu), nu - 1)], pu / nu
+    if L.n_bounded == 0:
+        return -1, 0.0
+    u = min((u - pu) / (1.0 - pu), ONE_MINUS)
+    tf = L.tree_f
+    ti = L.tree_i
+    node = 0
+    pmf = 1.0 - pu
+    while ti[node, 1] == 0:
+        c1 = ti[node, 0]
+        i0 = importance(tf, node + 1, p, n)
+        i1 = importance(tf, c1, p, n)
+        if not (i0 + i1 > 0.0):
+            return -1, 0.0
+        p0 = i0 / (i0 + i1)
+        if u < p0:
+            node += 1
+            u = min(u / p0, ONE_MINUS)
+            pmf *= p0
+        else:
+            node = c1
+            u = min((u - p0) / (1.0 - p0), ONE_MINUS)
+            pmf *= 1.0 - p0
+    if node == 0 and not importance(tf, 0, p, n) > 0.0:      # a lone light that cannot light p
+        return -1, 0.0
+    return ti[node, 0], pmf
+
+
+@nb.njit(**_JIT)
+def light_pmf(L, p, n, k):
+    """The probability that `choose_light` at point p with normal n returns light k."""
+    d = L.depth[k]
+    if d < 0:                                        # a light without a position
+        pu = _p_unbounded(L)
+        return pu / L.unbounded.shape[0] if pu > 0.0 else 0.0
+    tf = L.tree_f
+    ti = L.tree_i
+    pmf = 1.0 - _p_unbounded(L)
+    if d == 0:
+        return pmf if importance(tf, 0, p, n) > 0.0 else 0.0
+    trail = L.trail[k]
+    node = 0
+    for level in range(d):
+        c1 = ti[node, 0]
+        i0 = importance(tf, node + 1, p, n)
+        i1 = importance(tf, c1, p, n)
+        if not (i0 + i1 > 0.0):
+            return 0.0
+        if (trail >> level) & 1:
+            pmf *= i1 / (i0 + i1)
+            node = c1
+        else:
+            pmf *= i0 / (i0 + i1)
+            node += 1
+    return pmf
