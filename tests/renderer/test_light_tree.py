@@ -1,0 +1,113 @@
+"""The light tree (host/light_tree.py, kernel/light_tree.py): the probabilities of all lights at a point
+sum to 1, `choose_light` draws each light with the probability `light_pmf` reports, the importance of
+a point light is its power over the squared distance times the receiver's cosine, cone unions hold
+both cones, and a light behind a one-sided rect's back or below the receiver's horizon is never chosen."""
+import math
+
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.build import build
+from rtc.renderer.host.light_selection import path_lights
+from rtc.renderer.host.light_tree import ENTIRE, cone_union
+from rtc.renderer.kernel.light_tree import choose_light, importance, light_pmf
+from tests.renderer.handmade import look_at, quad, scene, translate
+
+
+def _rect(center, facing, size, radiance):
+    """A rect light at `center` emitting towards `facing` (its local -Z)."""
+    z = -np.asarray(facing, float) / np.linalg.norm(facing)
+    x = np.cross([0.0, 1.0, 0.3], z)
+    x /= np.linalg.norm(x)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = x, np.cross(z, x), z, center
+    return D.Light(path='/r', type=D.RECT, matrix=m, radiance=(radiance,) * 3, width=size, height=size)
+
+
+def _lights_scene():
+    rng = np.random.default_rng(3)
+    lights = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(*rng.uniform([-5, 0.5, -5], [5, 3, 5])),
+                      radiance=(float(rng.uniform(0.5, 5)),) * 3) for k in range(40)]
+    lights += [_rect(rng.uniform([-5, 1, -5], [5, 4, 5]), (0, -1, 0), 0.5, 3.0) for _ in range(20)]
+    lights += [D.Light(path='/s', type=D.SPHERE, matrix=translate(0, 2, 0), radiance=(4.0,) * 3, radius=0.3),
+               D.Light(path='/sky', type=D.DOME, matrix=np.eye(4), radiance=(0.2,) * 3)]
+    cam = D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0)))
+    return scene([D.Container('/', meshes=[quad(12.0)])], [D.Material('/m')], lights, cam)
+
+
+@pytest.fixture(scope='module')
+def lights():
+    desc = _lights_scene()
+    built = build(desc)
+    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    yield L
+    if shapes is not None:
+        shapes.close()
+    built.close()
+
+
+POINTS = [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), ((3.0, 0.0, -2.0), (0.0, 1.0, 0.0)), ((-4.0, 2.0, 1.0), (1.0, 0.0, 0.0))]
+
+
+@pytest.mark.parametrize('p, n', POINTS)
+def test_probabilities_sum_to_one_and_match_the_draws(lights, p, n):
+    pmf = np.array([light_pmf(lights, p, n, k) for k in range(62)])
+    assert pmf.sum() == pytest.approx(1.0, abs=1e-9)
+    draws = 20000
+    counts = np.zeros(62)
+    for i in range(draws):
+        k, pk = choose_light(lights, p, n, (i + 0.5) / draws)
+        counts[k] += 1
+        assert pk == pytest.approx(pmf[k], rel=1e-9)
+    # stratified u: each light's share is its probability to within the count granularity
+    assert np.max(np.abs(counts / draws - pmf)) < 3.0 / draws + 1e-9
+
+
+def test_the_dome_is_chosen_with_its_share(lights):
+    assert light_pmf(lights, (0.0, 0.0, 0.0), (0.0, 1.0, 0.0), 61) == pytest.approx(0.5)
+
+
+def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
+    desc = scene([D.Container('/', meshes=[quad(4.0)])], [D.Material('/m')],
+                 [_rect((0.0, 2.0, 0.0), (0.0, -1.0, 0.0), 1.0, 5.0), _rect((0.0, 2.0, 3.0), (0.0, -1.0, 0.0), 1.0, 5.0)],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    try:                                              # points relative to the camera, as the kernels see them
+        above = (0.0, 5.0 - 3.0, -8.0)                # above both rects: their backs face it
+        assert light_pmf(L, above, (0.0, 1.0, 0.0), 0) == 0.0 and light_pmf(L, above, (0.0, 1.0, 0.0), 1) == 0.0
+        assert choose_light(L, above, (0.0, 1.0, 0.0), 0.3) == (-1, 0.0)
+        below = (0.0, -3.0, -8.0)                     # under the first rect, 3 from the second
+        assert light_pmf(L, below, (0.0, 1.0, 0.0), 0) > light_pmf(L, below, (0.0, 1.0, 0.0), 1) > 0.0
+    finally:
+        shapes.close()
+        built.close()
+
+
+def test_a_point_lights_importance_is_power_over_distance_squared_times_the_cosine():
+    # one leaf: centre (1, 2, 0), radius 0, phi 10, every direction
+    tf = np.zeros((1, 13))
+    tf[0, 0:3] = (1.0, 2.0, 0.0)
+    tf[0, 5] = 10.0
+    tf[0, 6:9] = ENTIRE[0]
+    tf[0, 9], tf[0, 10], tf[0, 11] = -1.0, 0.0, 0.0
+    p, n = (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)
+    assert importance(tf, 0, p, n) == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-12)
+
+
+def test_cone_union_holds_both_cones():
+    rng = np.random.default_rng(7)
+    for _ in range(200):
+        a = rng.normal(size=3)
+        b = rng.normal(size=3)
+        ca, cb = rng.uniform(-0.2, 1.0, 2)
+        w, c = cone_union((a / np.linalg.norm(a), ca), (b / np.linalg.norm(b), cb))
+        for axis, cos_half in ((a / np.linalg.norm(a), ca), (b / np.linalg.norm(b), cb)):
+            # the cone's axis and every direction on its rim lie in the union
+            t = np.cross(axis, [0.3, 0.5, 0.8])
+            t /= np.linalg.norm(t)
+            s = math.sqrt(max(0.0, 1 - cos_half * cos_half))
+            for phi in np.linspace(0, 2 * math.pi, 16):
+                rim = cos_half * axis + s * (math.cos(phi) * t + math.sin(phi) * np.cross(axis, t))
+                assert np.dot(rim, w) >= c - 1e-9
