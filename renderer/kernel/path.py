@@ -46,9 +46,12 @@ from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, previe
 from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY, MF_ROUGH
+from .shapes import hit_gprim
+from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
+                     MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
-from .trace import GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, intersect1, intersect16, lane_hit, occluded1_surfaces
+from .trace import (GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, hit_of, intersect1, intersect1_surfaces, intersect16,
+                    lane_hit, occluded1_surfaces)
 from .vecmath import dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -97,13 +100,39 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
         return BLACK
     pl = pk * pdf
     w = 1.0 if (delta or strategy == NEE_ONLY) else pl * pl / (pl * pl + pb * pb)
-    tr.counts[RAYS_SHADOW] += 1
     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-    record_if(tr.rec, tr.tile, RAYS_SHADOW, vtx.po, wi, 0.0, smax, vtx.time)
-    if occluded1_surfaces(tr.scene, tr.f, tr.u, vtx.po, wi, 0.0, smax, vtx.time):
+    vis = shadow_transmittance(S, tr, vtx.po, wi, smax, vtx.time)
+    if vis == 0.0:
         return BLACK
-    s = w / pl
+    s = vis * w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
+
+
+@nb.njit(**STAGE_JIT)
+def shadow_transmittance(S, tr, o, d, smax, time):
+    """The fraction of light that crosses the shadow ray (o, d) up to smax: 0 behind an opaque
+    surface, 1 when nothing is in the way, and across partly transparent UsdPreviewSurfaces (opacity
+    a < 1, which camera and BSDF rays find with probability a: `trace_path`) the product of their
+    1 - a, so that light sampling and BSDF sampling estimate the same light through them."""
+    tr.counts[RAYS_SHADOW] += 1
+    record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, 0.0, smax, time)
+    if not F_OPACITY:
+        return 0.0 if occluded1_surfaces(tr.scene, tr.f, tr.u, o, d, 0.0, smax, time) else 1.0
+    vis = 1.0
+    tn = 0.0
+    for _ in range(PASS_THROUGH_MAX + 1):
+        if not intersect1_surfaces(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
+            return vis
+        mat = hit_gprim(S, hit_of(tr.f, tr.u))[2]
+        a = float(S.mat_f[mat, MF_OPACITY])
+        if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE or a >= 1.0:
+            return 0.0
+        vis *= 1.0 - a
+        th = float(tr.f[TFAR])
+        tn = th + 1e-5 * max(th, 1e-3)
+        tr.counts[RAYS_SHADOW] += 1
+        record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, tn, smax, time)
+    return 0.0
 
 
 @nb.njit(**SHADING_INLINE_JIT)

@@ -23,22 +23,29 @@ from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
 @nb.njit(**SHADING_INLINE_JIT)
+def hit_gprim(S, hit):
+    """(placement row, gprim, material) of `hit` (a `records.Hit`): the placement's material set
+    overrides the gprim's own binding."""
+    row = S.grp_base[hit.inst_id] + hit.inst_prim
+    proto = S.in_proto[row]
+    g = S.pr_geom_gp[S.pr_geom_off[proto] + hit.geom_id]
+    mat = -1
+    base = S.in_matset[row]
+    if base >= 0:
+        mat = S.matset[base + g - S.pr_gp_start[proto]]
+    if mat < 0:
+        mat = S.gp_material[g]
+    return row, g, mat
+
+
+@nb.njit(**SHADING_INLINE_JIT)
 def surface(S, scene, hit, o, d, time, m, m32):
     """The surface at `hit` (a `records.Hit`) of the ray (o, d): (p, ng, ns, st, gprim, material).  `m` (3, 4) float64 and `m32` (12,) float32 are scratch.
     Moving placements take their matrix from Embree (interpolated exactly as it was traced: lerped
     or, for rotations, slerped); static ones use our float64 matrix.
     ng: unit geometric normal (outward), ns: unit shading normal, st: texture coordinates."""
     inst_id, inst_prim, geom_id, prim_id, bu, bv, t = hit
-    row = S.grp_base[inst_id] + inst_prim
-    proto = S.in_proto[row]
-    g = S.pr_geom_gp[S.pr_geom_off[proto] + geom_id]
-    slot = g - S.pr_gp_start[proto]
-    mat = -1
-    base = S.in_matset[row]
-    if base >= 0:
-        mat = S.matset[base + slot]
-    if mat < 0:
-        mat = S.gp_material[g]
+    row, g, mat = hit_gprim(S, hit)
     if F_XF_MOTION and S.in_xf.shape[1] > 1:
         instance_transform(scene, inst_id, inst_prim, time, m32)
         for i in range(3):

@@ -168,6 +168,18 @@ def occluded1_surfaces(scene, f, u, o, d, tnear, tfar, time):
 
 
 @numba.njit(**INLINE_JIT)
+def intersect1_surfaces(scene, f, u, o, d, tnear, tfar, time):
+    """`intersect1` against surfaces only (ray mask MASK_SURFACES: no light shapes)."""
+    _set_ray(f, u, o, d, tnear, tfar, time)
+    u[MASK] = MASK_SURFACES
+    u[GEOM_ID] = INVALID
+    u[INST_ID] = INVALID
+    u[INST_PRIM_ID] = INVALID
+    rtcIntersect1(scene, f.ctypes.data, 0)
+    return u[GEOM_ID] != INVALID
+
+
+@numba.njit(**INLINE_JIT)
 def hit_of(f, u):
     """The `Hit` in a ray buffer after `intersect1` returned True (or `lane_hit` copied one)."""
     return Hit(u[INST_ID], u[INST_PRIM_ID], u[GEOM_ID], u[PRIM_ID], float(f[U]), float(f[V]), float(f[TFAR]))

@@ -61,3 +61,25 @@ def test_lambert_plane_under_a_rect_light_is_the_form_factor(strategy):
     assert img.mean() == pytest.approx(ref.mean(), rel=0.005)
     err = np.abs(img - ref)
     assert np.sqrt(np.mean(err ** 2)) < 0.02 * ref.max(), np.sqrt(np.mean(err ** 2))
+
+
+@pytest.mark.parametrize('strategy', ['mis', 'nee', 'bsdf'])
+def test_a_partly_transparent_sheet_passes_one_minus_opacity_of_the_light(strategy):
+    """A black sheet of opacity a between the rect light and the Lambert plane (and between the plane
+    and the camera): the plane receives (1 - a) of the form-factor irradiance and the camera sees it
+    through the sheet with probability 1 - a, so the image is (1 - a)^2 times the bare plane's.  Light
+    sampling crosses the sheet by its shadow rays' transmittance, BSDF sampling by passing through it:
+    each strategy alone must give the same image."""
+    a = 0.4
+    lam = D.Material('/lambert', model=D.LAMBERTIAN, diffuse=(0.5, 0.5, 0.5))
+    sheet = D.Material('/sheet', diffuse=(0.0, 0.0, 0.0), ior=1.0, roughness=1.0, opacity=a)
+    desc = scene([D.Container('/', meshes=[quad(40.0), quad(40.0, y=0.5 * H, material=1, path='/sheet')])],
+                 [lam, sheet], [rect_light((0.0, H, 0.0), A, B, (LR,) * 3)], ortho_down(width=WIDTH), width=N, height=N)
+    corners = [(-A / 2, H, -B / 2), (A / 2, H, -B / 2), (A / 2, H, B / 2), (-A / 2, H, B / 2)]
+    ref = (1 - a) ** 2 * ti.pixel_average(lambda x, z: 0.5 / np.pi * ti.polygon_irradiance(x, z, corners, LR), N, WIDTH,
+                                          sub=24)
+    spp = 512 if strategy != 'bsdf' else 4096
+    with Renderer(desc) as r:
+        img = r.render(RenderOptions(spp=spp, integrator='path', strategy=strategy, filter='box', max_depth=1)).image[..., 0]
+    assert img.mean() == pytest.approx(ref.mean(), rel=0.01), (img.mean(), ref.mean())
+    assert np.sqrt(np.mean((img - ref) ** 2)) < 0.03 * ref.max()
