@@ -20,6 +20,7 @@ import subprocess
 import sys
 import tempfile
 import time
+from pathlib import Path
 
 import numpy as np
 
@@ -81,7 +82,8 @@ def shadow_rays(primary, t, light=(3.0, 8.0, 2.0)):
 
 
 def throughput(rounds: int):
-    import embree_loops as trace                  # benchmarks/, the folder of this script
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # one module name for numba's cache: the tests'
+    from benchmarks import embree_loops as trace
     from rtc.renderer.host.embree import Device
     rng = np.random.default_rng(0)
     with Device() as device:

@@ -10,6 +10,9 @@ glossy   UsdPreviewSurface spheres (GGX gold metallic roughness 0.3 = alpha 0.09
          0.5 metal, shapegroup / PointInstancer), a diffuse floor, a 2 x 2 rect light, D = 3.  Mitsuba:
          roughconductor (perfect-conductor Fresnel x the base colour) and roughplastic; each renderer is
          measured against its own reference, so these differences of BSDF do not enter the comparison.
+
+Run alone, it writes rtc's stage of a case (for `rtc render` / `rtc converge` / `bench_render.py`):
+`python benchmarks/bench_mitsuba_path.py glossy glossy.usda [640 480]`.
 """
 from __future__ import annotations
 
@@ -255,3 +258,14 @@ def compare_converged(rs, spp):
         print('   ', ' '.join(f'{x:.3f}' for x in row))
     print(f'  worst block {np.abs(ratios - 1).max() * 100:.2f} %  (targets: mean 2 %, blocks 5 %)')
     return ratios
+
+
+if __name__ == '__main__':
+    # python benchmarks/bench_mitsuba_path.py glossy glossy.usda [WIDTH HEIGHT]: write rtc's stage of a case
+    import sys
+    sys.path.insert(0, str(__import__('pathlib').Path(__file__).parent))
+    case, out = sys.argv[1], sys.argv[2]
+    size = [int(x) for x in sys.argv[3:5]] or [640, 480]
+    st = rtc_stage(case, *size)
+    st.GetRootLayer().Export(out)
+    print(f'{case} -> {out}')

@@ -43,7 +43,8 @@ import numpy as np
 
 
 from rtc.renderer.host import film as film_mod  # noqa: E402
-from embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  (benchmarks/)
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # the repository root: numba caches the loops under
+from benchmarks.embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  # the tests' name
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
                                             N_COUNTERS)
