@@ -2,17 +2,18 @@
 
     python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--repeats 3]
 
-A USD stage: a floor lit by one dominant 3 x 3 rect light, a 10 x 10 grid of instanced lamp prototypes
-(native instancing: each prototype holds a small box and a 0.2 x 0.2 RectLight, so 100 of the lights are
-inside instances) plus free point and 0.3 x 0.3 rect lights up to the requested count, half each.  Three
-scenes: the dominant light alone; with the minor lights *dominant* (their intensities times `--minor`,
-0.02: they add a few per cent to the image, the issue's "noise of the dominant light"); and *bright*
-(intensities times 1: the 900 lights near the floor outshine the main light, so the image itself is a
-different, harder one).  Whole renders alternate (median of `--repeats`), path integrator, D = 3,
-320 x 240.  Reported: time per sample per pixel of each and its ratio to the one-light scene (issue
-target <= 2), the relative RMSE of each at `--spp` against its own `--ref-spp` reference and its ratio
-to the one-light scene's (target <= 1 for the dominant scene), and how much the minor lights add to the
-image mean.
+A USD stage: a floor lit by one dominant 3 x 3 rect light and a 10 x 10 grid of instanced lamps (native
+instancing: each prototype holds a small box and, in the many-light scenes, a 0.2 x 0.2 RectLight, so 100
+of the lights are inside instances), plus free point and 0.3 x 0.3 rect lights up to the requested count,
+half each.  Scenes: *one light* (the dominant light, the lamps' boxes without their lights: the same
+geometry, the baseline the issue asks for); *one light, no lamps* (the floor alone: the earlier
+baseline); the minor lights *dominant* (their intensities times `--minor`, 0.02: they add ~1 % to the
+image, the issue's "noise of the dominant light"); and *bright* (intensities times 1: the 900 lights near
+the floor outshine the main light, a different, harder image).  Whole renders alternate (median of
+`--repeats`), path integrator, D = 3, 320 x 240.  Reported: time per sample per pixel of each and its
+ratio to the one-light scene (issue target <= 2), the relative RMSE of each at `--spp` against its own
+`--ref-spp` reference and its ratio to the one-light scene's (target <= 1 for the dominant scene), and
+how much the minor lights add to the image mean.
 """
 from __future__ import annotations
 
@@ -24,8 +25,9 @@ import time
 import numpy as np
 
 
-def stage(n_lights: int, minor: float = 1.0):
-    """The stage with n_lights lights: the dominant rect light, and the minor lights' intensities times `minor`."""
+def stage(n_lights: int, minor: float = 1.0, lamps: bool = True):
+    """The stage with n_lights lights: the dominant rect light, and the minor lights' intensities times
+    `minor`; `lamps`: the grid of 100 instanced lamps (their boxes, and their lights if n_lights > 100)."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
     st = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
@@ -48,23 +50,25 @@ def stage(n_lights: int, minor: float = 1.0):
     UsdGeom.Xformable(main).AddTranslateOp().Set(Gf.Vec3d(0, 6, 0))
     UsdGeom.Xformable(main).AddRotateXOp().Set(-90.0)
     rest = n_lights - 1
-    if rest > 0:
-        proto = UsdGeom.Xform.Define(st, '/Lamp')
+    n_inst = 100 if lamps and rest >= 100 else 0           # lights inside the lamps
+    if lamps:
+        UsdGeom.Xform.Define(st, '/Lamp')
         box = UsdGeom.Cube.Define(st, '/Lamp/Box')
         box.CreateSizeAttr(0.2)
         UsdShade.MaterialBindingAPI.Apply(box.GetPrim()).Bind(mat)
-        lamp = UsdLux.RectLight.Define(st, '/Lamp/Light')
-        lamp.CreateWidthAttr(0.2)
-        lamp.CreateHeightAttr(0.2)
-        lamp.CreateIntensityAttr(2.0 * minor)
-        UsdGeom.Xformable(lamp).AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
-        UsdGeom.Xformable(lamp).AddRotateXOp().Set(-90.0)
-        n_inst = min(100, rest)
-        for k in range(n_inst):
+        if n_inst:
+            lamp = UsdLux.RectLight.Define(st, '/Lamp/Light')
+            lamp.CreateWidthAttr(0.2)
+            lamp.CreateHeightAttr(0.2)
+            lamp.CreateIntensityAttr(2.0 * minor)
+            UsdGeom.Xformable(lamp).AddTranslateOp().Set(Gf.Vec3d(0, 0.5, 0))
+            UsdGeom.Xformable(lamp).AddRotateXOp().Set(-90.0)
+        for k in range(100):
             p = st.DefinePrim(f'/World/Lamps/L{k}')
             p.GetReferences().AddInternalReference('/Lamp')
             p.SetInstanceable(True)
             UsdGeom.Xformable(p).AddTranslateOp().Set(Gf.Vec3d(-9 + 2 * (k % 10), 0.1, -9 + 2 * (k // 10)))
+    if rest > 0:
         rng = np.random.default_rng(1)
         for k in range(rest - n_inst):
             pos = Gf.Vec3d(*rng.uniform([-15, 1, -15], [15, 4, 15]))
@@ -99,11 +103,11 @@ def main(argv=None) -> int:
     a = ap.parse_args(argv)
     from rtc.renderer.host.render import RenderOptions, Renderer
     from rtc.renderer.usd.stage import read_stage
-    scenes = {'one light': (1, 1.0), f'{a.lights} lights, dominant': (a.lights, a.minor),
-              f'{a.lights} lights, bright': (a.lights, 1.0)}
+    scenes = {'one light': (1, 1.0, True), 'one light, no lamps': (1, 1.0, False),
+              f'{a.lights} lights, dominant': (a.lights, a.minor, True), f'{a.lights} lights, bright': (a.lights, 1.0, True)}
     rs = {}
-    for name, (n, minor) in scenes.items():
-        desc = read_stage(stage(n, minor), camera_path='/World/Camera')
+    for name, (n, minor, lamps) in scenes.items():
+        desc = read_stage(stage(n, minor, lamps), camera_path='/World/Camera')
         types = {}
         for l in desc.lights:
             types[l.type] = types.get(l.type, 0) + 1

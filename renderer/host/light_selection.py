@@ -5,9 +5,14 @@ chosen; the light shapes that BSDF rays can meet, in an Embree scene of their ow
 O(log n) per ray, found by the same query as the surfaces: `build.top_with_light_shapes`; the cook
 integrator never builds it); the dome's sampling tables.
 
-Power estimates (the tree's phi; only ratios matter, and any positive choice keeps the estimator unbiased):
-point 4 pi I, rect and disk pi A L, sphere 4 pi^2 r^2 L, distant pi R^2 E and dome 4 pi^2 R^2 L
-(texture mean) with R the radius of the scene's bounds, luminances of the RGB values.
+The tree's phi of a light (only ratios matter, and any positive choice keeps the estimator unbiased) is
+its largest radiant *intensity*, so that a leaf's importance, phi cos / d^2, is the irradiance the light
+delivers (exactly for a small light): point I, rect and disk A L (seen face on), sphere pi r^2 L.  Total
+powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would weigh a point light 4 times too much
+against an area light of the same irradiance, and the tree would spend light samples on minor point lights
+beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
+tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (texture mean), R the radius
+of the scene's bounds.  Luminances of the RGB values.
 """
 from __future__ import annotations
 
@@ -26,16 +31,16 @@ PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'un
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
-def light_power(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
+def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
     out = np.zeros(max(len(desc.lights), 1))
     for k, l in enumerate(desc.lights):
         y = float(np.dot(_LUM, l.radiance))
         if l.type == D.POINT:
-            out[k] = 4 * np.pi * y
+            out[k] = y
         elif l.type in (D.RECT, D.DISK):
-            out[k] = np.pi * li_f[k, LF_AREA] * y
+            out[k] = li_f[k, LF_AREA] * y
         elif l.type == D.SPHERE:
-            out[k] = 4 * np.pi ** 2 * li_f[k, LF_RADIUS] ** 2 * y
+            out[k] = np.pi * li_f[k, LF_RADIUS] ** 2 * y
         elif l.type == D.DISTANT:
             out[k] = np.pi * radius ** 2 * y
         elif l.type == D.DOME:
@@ -84,7 +89,7 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
     dome_i, dome_cdf, dome_mean = dome_tables(desc)
     tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
-        desc, li_f, light_power(desc, li_f, max(radius, 1e-30), dome_mean))
+        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean))
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE)]
     infinite = [k for k, l in enumerate(desc.lights)

@@ -2,11 +2,11 @@
 "Importance Sampling of Many Lights with Adaptive Tree Splitting"; pbrt-v4's BVHLightSampler).
 
 Every light with a position (point, rect, disk, sphere, cylinder) is a leaf with its *light bounds*:
-a box, its power phi, the cone of its emission normals (axis w, half-angle theta_o) and the angle
+a box, its phi (its largest radiant intensity, `light_selection.light_phi`), the cone of its emission normals (axis w, half-angle theta_o) and the angle
 theta_e beyond the normals up to which it emits (pi/2 for every UsdLux light: they emit into a
 hemisphere about each normal, or everywhere).  Inner nodes bound their children (union of boxes,
-sum of powers, union of cones).  At a shading point the kernel walks from the root to a leaf, taking
-each child with probability proportional to its *importance* there: power / distance^2, times
+sum of phis, union of cones).  At a shading point the kernel walks from the root to a leaf, taking
+each child with probability proportional to its *importance* there: phi / distance^2, times
 bounds on the cosines at the light and at the receiver (`kernel/light_tree.py`), so a light far away,
 facing away or below the horizon is rarely chosen, whatever its power.  Lights without a position
 (dome, distant) are chosen uniformly with probability n / (n + 1) (n of them; the tree the rest).

@@ -28,41 +28,42 @@ def _sin_sub(sa, ca, sb, cb):
 @nb.njit(**_JIT)
 def importance(tf, node, p, n):
     """Importance of tree node `node` (a row of tf = PathLights.tree_f) at point p with normal n: its
-    power over the squared distance, times upper bounds of the cosine at the lights (the angle between
-    the direction to p and the cone of emission normals, less the angle the node's bounding sphere
-    subtends) and of the cosine at the receiver."""
+    power over the squared distance (at least the node's half diagonal), times upper bounds of the
+    cosine at the lights (the angle between the direction to p and the cone of emission normals, less
+    the angle the node's bounding sphere subtends) and of the cosine at the receiver.  Inside the
+    bounding sphere every direction is possible: both bounds are 1.  A node whose normals point
+    everywhere (cos theta_o = -1: points, spheres, mixed nodes) skips the cone; one square root serves
+    sin_i sin_b."""
     dx = p[0] - tf[node, T_C]
     dy = p[1] - tf[node, T_C + 1]
     dz = p[2] - tf[node, T_C + 2]
     dd = dx * dx + dy * dy + dz * dz
-    d2 = max(dd, tf[node, T_HALF_DIAG])
     r = tf[node, T_RADIUS]
-    if dd > r * r:                                   # outside the bounding sphere
-        inv = 1.0 / math.sqrt(dd)
-        wx, wy, wz = dx * inv, dy * inv, dz * inv
-        sin2_b = r * r / dd
-        cos_b = math.sqrt(max(0.0, 1.0 - sin2_b))
-        sin_b = math.sqrt(sin2_b)
-    else:                                            # inside: every direction
-        wx, wy, wz = 0.0, 0.0, 1.0
-        cos_b = -1.0
-        sin_b = 0.0
-    cos_w = tf[node, T_W] * wx + tf[node, T_W + 1] * wy + tf[node, T_W + 2] * wz
-    if tf[node, T_TWO_SIDED] != 0.0:
-        cos_w = abs(cos_w)
-    sin_w = math.sqrt(max(0.0, 1.0 - cos_w * cos_w))
+    if dd <= r * r:
+        return max(tf[node, T_PHI] / max(dd, tf[node, T_HALF_DIAG]), 0.0)
+    inv = 1.0 / math.sqrt(dd)
+    wx, wy, wz = dx * inv, dy * inv, dz * inv
+    sin_b = r * inv
+    cos_b = math.sqrt(1.0 - sin_b * sin_b)
+    cos_p = 1.0
     cos_o = tf[node, T_COS_O]
-    sin_o = tf[node, T_SIN_O]
-    cos_x = _cos_sub(sin_w, cos_w, sin_o, cos_o)
-    sin_x = _sin_sub(sin_w, cos_w, sin_o, cos_o)
-    cos_p = _cos_sub(sin_x, cos_x, sin_b, cos_b)
-    if cos_p <= tf[node, T_COS_E]:
-        return 0.0
-    imp = tf[node, T_PHI] * cos_p / d2
+    if cos_o > -1.0:
+        cos_w = tf[node, T_W] * wx + tf[node, T_W + 1] * wy + tf[node, T_W + 2] * wz
+        if tf[node, T_TWO_SIDED] != 0.0:
+            cos_w = abs(cos_w)
+        sin_w = math.sqrt(max(0.0, 1.0 - cos_w * cos_w))
+        sin_o = tf[node, T_SIN_O]
+        cos_x = _cos_sub(sin_w, cos_w, sin_o, cos_o)
+        sin_x = _sin_sub(sin_w, cos_w, sin_o, cos_o)
+        cos_p = _cos_sub(sin_x, cos_x, sin_b, cos_b)
+        if cos_p <= tf[node, T_COS_E]:
+            return 0.0
     cos_i = abs(wx * n[0] + wy * n[1] + wz * n[2])
-    sin_i = math.sqrt(max(0.0, 1.0 - cos_i * cos_i))
-    imp *= _cos_sub(sin_i, cos_i, sin_b, cos_b)
-    return max(imp, 0.0)
+    if cos_i < cos_b:                                # cos(max(0, theta_i - theta_b))
+        cos_i = cos_i * cos_b + math.sqrt(max(0.0, (1.0 - cos_i * cos_i) * (1.0 - cos_b * cos_b)))
+    else:
+        cos_i = 1.0
+    return max(tf[node, T_PHI] * cos_p * cos_i / max(dd, tf[node, T_HALF_DIAG]), 0.0)
 
 
 @nb.njit(**_JIT)
