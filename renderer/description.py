@@ -129,7 +129,7 @@ class Texture:
 
 
 # Light types
-POINT, SPHERE, RECT, DISK, DISTANT, DOME = range(6)
+POINT, SPHERE, RECT, DISK, DISTANT, DOME, CYLINDER = range(7)
 
 
 @dataclass
@@ -139,10 +139,12 @@ class Light:
     matrix: np.ndarray                      # float64 (4, 4) light-to-world (UsdLux local frame: emits along -Z)
     radiance: tuple                         # linear RGB: color * intensity * 2**exposure (normalize applied,
                                             # see below); for POINT the radiant intensity (W/sr) instead
-    radius: float = 0.0                     # SPHERE, DISK
+    radius: float = 0.0                     # SPHERE, DISK, CYLINDER
     width: float = 0.0                      # RECT (local X)
     height: float = 0.0                     # RECT (local Y)
     angle: float = 0.0                      # DISTANT: angular diameter in degrees
+    length: float = 0.0                     # CYLINDER: along local X (centred on the origin; emits from its
+                                            # side, outwards, not from its caps)
     texture: int = -1                       # DOME: lat-long texture, -1 = constant colour
     course_intensity: Optional[tuple] = None  # a course light (RtcCourseLightAPI): the course's intensity I
     # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space

@@ -211,10 +211,12 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
         elif l.type == D.SPHERE:
             radius = l.radius * np.cbrt(abs(np.linalg.det(m[:3, :3])))
             area = 4 * np.pi * radius * radius
+        elif l.type == D.CYLINDER:                   # its side (Light.matrix is rigid: world sizes)
+            area = 2 * np.pi * l.radius * l.length
         elif l.type == D.DOME:
             li_tex[k] = l.texture
         LIGHT_F.write(li_f[k], M=m3.ravel(), RAD=l.radiance, RADIUS=radius, W=l.width, H=l.height,
-                      COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area)
+                      COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area, LENGTH=l.length)
         if l.course_intensity is not None and l.type in (D.POINT, D.RECT):
             LIGHT_F.write(li_f[k], COURSE=1.0, COURSE_I=l.course_intensity)
     return li_type, li_f, li_tex

@@ -7,7 +7,8 @@ motion blur) are documented and verified in ``/work/shared/embree.md``.
 Structure of a renderer scene
 -----------------------------
 * one **prototype scene** (one BVH) per container: ``Device.prototype_scene(meshes, spheres)``;
-  each mesh / sphere set is one geometry, geomIDs in list order, meshes first.
+  each mesh / sphere set is one geometry, geomIDs in list order, meshes first (then the round linear
+  curves of the path integrator's cylinder lights, `light_selection.shape_scene`).
 * one **top scene** of instances: ``Device.top_scene(prototypes, groups)``; each
   ``InstanceGroup`` becomes one ``RTC_GEOMETRY_TYPE_INSTANCE_ARRAY`` whose geomID is the group's
   position in ``groups``.  A hit therefore reads: ``instID`` = group, ``instPrimID`` = row of the
@@ -63,6 +64,7 @@ _ERROR_NAMES = {
 }
 
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
+RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE = 16
 RTC_GEOMETRY_TYPE_SPHERE_POINT = 50
 RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 
@@ -246,13 +248,15 @@ class Device:
 
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],
-                        spheres: list[np.ndarray], robust: bool = True) -> Scene:
+                        spheres: list[np.ndarray], robust: bool = True, curves: tuple = ()) -> Scene:
         """One Embree scene (one BVH) holding a container's geometry.
 
         meshes:  [(vertices float32 (n, 3), triangles uint32 (m, 3))] -> TRIANGLE geometries,
                  geomID 0 .. len(meshes)-1.
         spheres: [centers_radii float32 (k, 4)] -> SPHERE_POINT geometries (x, y, z, r),
                  geomID len(meshes) + i.
+        curves:  [segments float32 (k, 2, 4)] -> ROUND_LINEAR_CURVE geometries of k segments (two
+                 vertices x, y, z, radius each: a capsule per segment), geomID len(meshes) + len(spheres) + i.
         robust:  RTC_SCENE_FLAG_ROBUST (watertight; no leaks through shared edges far from the origin).
         Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
         spheres p - c; u, v are the barycentric weights of v1, v2.
@@ -270,6 +274,12 @@ class Device:
                 self._attach(scene, len(meshes) + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
                     (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
                      _as_rows(centers_radii, 4, "sphere centers_radii"))])
+            for i, segments in enumerate(curves):
+                segments = np.asarray(segments, np.float32).reshape(-1, 2, 4)
+                self._attach(scene, len(meshes) + len(spheres) + i, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, [
+                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
+                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32,
+                     2 * np.arange(len(segments), dtype=np.uint32))])
             return ()
         return self._build_scene(build, robust, "prototype scene")
 

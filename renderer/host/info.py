@@ -13,7 +13,7 @@ import numpy as np
 from ..description import MODEL_NAMES, SceneDescription
 from ..options import resolve
 
-LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome')
+LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome', 'cylinder')
 MODEL_LABELS = {v: k for k, v in MODEL_NAMES.items()}
 MAX_LISTED = 20
 

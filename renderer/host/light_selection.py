@@ -7,10 +7,10 @@ integrator never builds it); the dome's sampling tables.
 
 The tree's phi of a light (only ratios matter, and any positive choice keeps the estimator unbiased) is
 its largest radiant *intensity*, so that a leaf's importance, phi cos / d^2, is the irradiance the light
-delivers (exactly for a small light): point I, rect and disk A L (seen face on), sphere pi r^2 L.  Total
-powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would weigh a point light 4 times too much
-against an area light of the same irradiance, and the tree would spend light samples on minor point lights
-beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
+delivers (exactly for a small light): point I, rect and disk A L (seen face on), sphere pi r^2 L, cylinder
+2 r l L (seen across its axis).  Total powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would
+weigh a point light 4 times too much against an area light of the same irradiance, and the tree would
+spend light samples on minor point lights beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
 tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (texture mean), R the radius
 of the scene's bounds.  Luminances of the RGB values.
 """
@@ -21,7 +21,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_AREA, LF_H, LF_M, LF_RADIUS, LF_W
+from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
 from .light_tree import light_tree
 
@@ -39,6 +39,8 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
             out[k] = y
         elif l.type in (D.RECT, D.DISK):
             out[k] = li_f[k, LF_AREA] * y
+        elif l.type == D.CYLINDER:
+            out[k] = 2 * li_f[k, LF_RADIUS] * li_f[k, LF_LENGTH] * y
         elif l.type == D.SPHERE:
             out[k] = np.pi * li_f[k, LF_RADIUS] ** 2 * y
         elif l.type == D.DISTANT:
@@ -51,10 +53,14 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
 def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
     """(Embree scene or None, geom_off, prim_light) of the light shapes, for BSDF rays to find them in
     O(log n): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
-    test `light_sampling.hit_shape` rejects the corners), spheres as sphere points; light of a hit =
+    test `light_sampling.hit_shape` rejects the corners), spheres as sphere points, cylinders as one
+    segment of a round linear curve each (a capsule: Embree has no open cylinder; the capsule is
+    convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
+    capsule there, and the exact test rejects the hits on the round caps); light of a hit =
     prim_light[geom_off[geomID] + primID]."""
     planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]
     round_ = [k for k in shapes if desc.lights[k].type == D.SPHERE]
+    tubes = [k for k in shapes if desc.lights[k].type == D.CYLINDER]
     if not shapes:
         return None, np.zeros(1, np.int64), np.zeros(1, np.int64)
     meshes, spheres, geom_off, prim_light = [], [], [], []
@@ -76,7 +82,17 @@ def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list
                                  for k in round_], np.float32))
         geom_off.append(len(prim_light))
         prim_light += round_
-    scene = device.prototype_scene(meshes, spheres)
+    curves = []
+    if tubes:
+        segments = []
+        for k in tubes:
+            m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
+            half = 0.5 * li_f[k, LF_LENGTH] * m[:, 0] / np.linalg.norm(m[:, 0])
+            segments.append([[*(m[:, 3] - half), li_f[k, LF_RADIUS]], [*(m[:, 3] + half), li_f[k, LF_RADIUS]]])
+        curves.append(np.array(segments, np.float32))
+        geom_off.append(len(prim_light))
+        prim_light += tubes
+    scene = device.prototype_scene(meshes, spheres, curves=curves)
     return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
 
 
@@ -91,7 +107,7 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
         desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean))
     types = [l.type for l in desc.lights]
-    shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE)]
+    shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)
                 if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
     scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)

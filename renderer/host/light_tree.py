@@ -29,7 +29,7 @@ import math
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_M, LF_RADIUS, LIGHT_TREE
+from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE
 ENTIRE = (np.array([0.0, 0.0, 1.0]), -1.0)          # the cone of every direction
 
 
@@ -75,6 +75,11 @@ def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
             lo, hi = corners.min(0), corners.max(0)
             w = -m[:, 2] / max(float(np.linalg.norm(m[:, 2])), 1e-300)           # emits along local -Z
             cone = (w, 1.0)
+        elif l.type == D.CYLINDER:                     # the box of the cylinder about its axis (local X)
+            a = m[:, 0] / max(float(np.linalg.norm(m[:, 0])), 1e-300)
+            ext = np.abs(a) * 0.5 * li_f[k, LF_LENGTH] + li_f[k, LF_RADIUS] * np.sqrt(np.maximum(0.0, 1.0 - a * a))
+            lo, hi = c - ext, c + ext
+            cone = ENTIRE
         else:                                          # point, sphere (and any round light): everywhere
             r = li_f[k, LF_RADIUS] if l.type != D.POINT else 0.0
             lo, hi = c - r, c + r

@@ -33,7 +33,7 @@ from .. import description as D
 SAMPLER_IDS = {'independent': 0, 'stratified': 1, 'cmj': 2, 'sobol': 3}      # = samplers.SAMPLER_NAMES
 FILTER_IDS = {'box': 0, 'tent': 1, 'gaussian': 2}                           # = filters.FILTER_NAMES
 LIGHT_IDS = {'point': D.POINT, 'rect': D.RECT, 'disk': D.DISK, 'sphere': D.SPHERE, 'distant': D.DISTANT,
-             'dome': D.DOME}
+             'dome': D.DOME, 'cylinder': D.CYLINDER}
 
 
 def bits(ids) -> int:
@@ -55,7 +55,7 @@ class Features:
     course_lights: bool      # a light the cook integrator shades with the course's semantics (LF_COURSE)
     lux_lights: bool         # a light the cook integrator shades with UsdLux radiometry (every light in path)
     dome_texture: bool       # a dome light with a lat-long image
-    light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere)
+    light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
     textures: bool           # a material with an image texture
     opacity: bool            # a UsdPreviewSurface with opacity < 1
     emission: bool           # a material with emissive colour
@@ -108,5 +108,5 @@ B_MIRRORING = B_MIRROR | B_GLAZE | B_BLINN_PHONG_MIRRORED        # course models
 B_PHONG = B_BLINN_PHONG | B_BLINN_PHONG_MIRRORED                    # a Blinn-Phong highlight (path: a lobe)
 B_GGX = B_PREVIEW_SURFACE | B_BLINN_PHONG_MIRRORED                # a GGX lobe (path: rough glossy mirrors too)
 B_COURSE_MODELS = B_LAMBERTIAN | B_BLINN_PHONG | B_MIRRORING | B_DIELECTRIC | B_COOL_TO_WARM
-B_POINT, B_RECT, B_DISK, B_SPHERE, B_DISTANT, B_DOME = (1 << LIGHT_IDS[n] for n in LIGHT_IDS)
+B_POINT, B_RECT, B_DISK, B_SPHERE, B_DISTANT, B_DOME, B_CYLINDER = (1 << LIGHT_IDS[n] for n in LIGHT_IDS)
 B_PLANAR = B_RECT | B_DISK

@@ -6,13 +6,14 @@ distance for the shadow ray, the radiance arriving along it and the pdf of wi pe
 Delta lights (point; distant of zero angle) return delta = True, pdf 1 and Le = the irradiance they
 deliver normal to wi (I / d^2, or E): next-event estimation alone sees them.
 
-Lights with extent: rect and disk (uniform by area: pdf = d^2 / (cos_l A)), sphere (uniform in the
-cone it subtends, exact), distant with an angle (uniform in its cone: radiance E / Omega), dome
-(importance sampling of its lat-long texture by luminance x sin(theta), `host/dome_sampling.py`;
-cosine-weighted about n when untextured).  Rects and disks emit from their front (local -Z) only,
-spheres outwards.  Light shapes occlude nothing (shadow rays do not meet them: ray masks), and a ray
-collects the emission of every light shape it crosses before the surface it hits (`shape_emission`,
-`path.find_surface`).  Every ray
+Lights with extent: rect, disk and the side of a cylinder (uniform by area: pdf = d^2 / (cos_l A)),
+sphere (uniform in the cone it subtends, exact), distant with an angle (uniform in its cone: radiance
+E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
+`host/dome_sampling.py`; cosine-weighted about n when untextured).  Rects and disks emit from their
+front (local -Z) only, spheres and cylinders outwards (a cylinder from its side, not its caps: points
+facing away from the receiver are drawn and contribute nothing).  Light shapes occlude
+nothing (shadow rays do not meet them: ray masks), and a ray collects the emission of every light
+shape it crosses before the surface it hits (`shape_emission`, `path.find_surface`).  Every ray
 sees them, camera rays included (UsdLux gives lights no camera-visibility attribute; path renders
 what the light emits towards the camera, as Mitsuba and Karma do by default); the cook integrator
 does not see light shapes at all.
@@ -25,11 +26,11 @@ import math
 import numba as nb
 
 from .. import description as D
-from .features import B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
+from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
 from .light_tree import light_pmf
-from .lights import dome_radiance
+from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
-from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .vecmath import cross, dot, normalize, onb, sub, to_world
 INF = math.inf
 ZERO = (0.0, 0.0, 0.0)
@@ -96,6 +97,8 @@ def sample_ld(S, L, k, p, n, u1, u2):
         if cos_l <= 0.0:
             return NONE
         return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
+    if F_LIGHTS & B_CYLINDER and (F_LIGHTS == B_CYLINDER or t == D.CYLINDER):
+        return _cylinder_ld(lf, k, p, u1, u2, Lr)
     if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
         r = lf[k, LF_RADIUS]
         v = sub(pos, p)
@@ -130,6 +133,22 @@ def sample_ld(S, L, k, p, n, u1, u2):
             return NONE
         return wi, INF, dome_radiance(S, k, wi), pdf, False
     return NONE
+
+
+@nb.njit(**_JIT)
+def _cylinder_ld(lf, k, p, u1, u2, Lr):
+    """`sample_ld` of cylinder light k: a point uniformly by area on its side."""
+    q, nq = cylinder_point(lf, k, u1, u2)
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return NONE
+    d = math.sqrt(d2)
+    wi = (v[0] / d, v[1] / d, v[2] / d)
+    cos_l = -dot(nq, wi)
+    if cos_l <= 0.0:                     # the side facing away from p
+        return NONE
+    return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
 
 
 # ----------------------------------------------------------------------------- dome tables
@@ -224,6 +243,8 @@ def hit_shape(S, k, o, d, tmax, p0):
     transparent surfaces)."""
     lf = S.li_f
     t = S.li_type[k]
+    if F_LIGHTS & B_CYLINDER and t == D.CYLINDER:
+        return _hit_cylinder(lf, k, o, d, tmax, p0)
     if t == D.SPHERE:
         r = lf[k, LF_RADIUS]
         c = _col(lf, k, 3)
@@ -264,12 +285,43 @@ def hit_shape(S, k, o, d, tmax, p0):
 
 
 @nb.njit(**_JIT)
+def _hit_cylinder(lf, k, o, d, tmax, p0):
+    """`hit_shape` of cylinder light k: the ray entering its side from outside (the caps do not emit;
+    a ray from inside the infinite cylinder cannot enter the side)."""
+    ax = normalize(_col(lf, k, 0))
+    c = _col(lf, k, 3)
+    r = lf[k, LF_RADIUS]
+    oc = sub(o, c)
+    oa = dot(oc, ax)
+    da = dot(d, ax)
+    op = (oc[0] - oa * ax[0], oc[1] - oa * ax[1], oc[2] - oa * ax[2])
+    dp = (d[0] - da * ax[0], d[1] - da * ax[1], d[2] - da * ax[2])
+    a2 = dot(dp, dp)
+    b = dot(op, dp)
+    cc = dot(op, op) - r * r
+    disc = b * b - a2 * cc
+    if cc <= 0.0 or b >= 0.0 or disc <= 0.0:
+        return -1.0, 0.0
+    th = cc / (-b + math.sqrt(disc))                 # the nearer root, without cancellation
+    if not (0.0 < th < tmax) or abs(oa + th * da) > 0.5 * lf[k, LF_LENGTH]:
+        return -1.0, 0.0
+    lat = (op[0] + th * dp[0], op[1] + th * dp[1], op[2] + th * dp[2])
+    cos_l = -dot(lat, d) / r
+    if cos_l <= 0.0:
+        return -1.0, 0.0
+    q = (o[0] + th * d[0], o[1] + th * d[1], o[2] + th * d[2])
+    v = sub(q, p0)
+    return th, dot(v, v) / (cos_l * lf[k, LF_AREA])
+
+
+@nb.njit(**_JIT)
 def shape_emission(S, L, k, ray, te, prev):
     """MIS-weighted radiance of light shape k, which Embree found at distance te along ray = (o, d) (in
     the path integrator's top level: `host/build.top_with_light_shapes`); zero unless the exact test
     `hit_shape` agrees (the emitting side, inside the disk, this crossing of a sphere: its far side is
-    a second hit of the same point).  prev = (p0, n0, bsdf pdf, mis mode): the vertex the ray left, its
-    normal, the pdf with which its BSDF drew d, and 0 = weight by the power heuristic, 1 = weight 1
+    a second hit of the same point; a cylinder's side, not the capsule's round caps).  prev = (p0, n0,
+    bsdf pdf, mis mode): the vertex the ray left, its normal, the pdf with which its BSDF drew d, and
+    0 = weight by the power heuristic, 1 = weight 1
     (camera ray, delta lobe, or BSDF sampling alone), 2 = weight 0 (next-event estimation alone)."""
     o, d = ray
     p0, n0, pb, mode = prev

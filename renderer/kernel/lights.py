@@ -7,19 +7,21 @@ radiance is `f(wi, wo) * E_perp * cos(theta_i)` for physically based BRDFs and
 `kd * E_perp * cos + ks * E_perp * (n.h)^p` for the course models (which treat every light sample
 as a point light: Cook et al. 1984; Shirley, FCG).
 
-Area lights are sampled uniformly by area (rectangle, disk) or by solid angle of the visible cap
-(sphere: exact, no wasted samples behind the horizon of the light), which gives soft shadows whose
-noise falls with the stratification of the 2D light sample.
+Area lights are sampled uniformly by area (rectangle, disk, the side of a cylinder) or by solid
+angle of the visible cap (sphere: exact, no wasted samples behind the horizon of the light), which
+gives soft shadows whose noise falls with the stratification of the 2D light sample.  A cylinder
+light (along its local X) emits outwards from its side: a sample point facing away from the shading
+point contributes nothing.
 """
 import math
 
 import numba as nb
 
 from .. import description as D
-from .features import (B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE, F_LIGHTS,
-                       F_LUX_LIGHTS)
+from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE,
+                       F_LIGHTS, F_LUX_LIGHTS)
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .tables import LF_AREA, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_H, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .tables import LF_AREA, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .textures import sample_latlong
 from .vecmath import dot, normalize, onb, sub, to_world
 
@@ -53,6 +55,8 @@ def sample_light(S, k, p, n, u1, u2):
         return _sample_area(lf, k, t, p, u1, u2, L)
     if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
         return _sample_sphere(lf, k, p, u1, u2, L)
+    if F_LIGHTS & B_CYLINDER and (F_LIGHTS == B_CYLINDER or t == D.CYLINDER):
+        return _sample_cylinder(lf, k, p, u1, u2, L)
     if F_LIGHTS & B_DISTANT and (F_LIGHTS == B_DISTANT or t == D.DISTANT):
         return _sample_distant(lf, k, u1, u2, L)
     if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or t == D.DOME):
@@ -98,6 +102,41 @@ def _sample_area(lf, k, t, p, u1, u2, L):
     nl = normalize(_col(lf, k, 2))            # light emits along local -Z
     cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
     if cos_l <= 0.0:
+        return wi, d, (0.0, 0.0, 0.0)
+    g = cos_l * lf[k, LF_AREA] * (r * r)
+    return wi, d, (L[0] * g, L[1] * g, L[2] * g)
+
+
+@nb.njit(**INLINE_JIT)
+def cylinder_point(lf, k, u1, u2):
+    """(point, outward unit normal) uniformly by area on the side of cylinder light k (u1 along its
+    axis, local X; u2 around it)."""
+    ax = normalize(_col(lf, k, 0))
+    ey = normalize(_col(lf, k, 1))
+    ez = normalize(_col(lf, k, 2))
+    c = _col(lf, k, 3)
+    a = (u1 - 0.5) * lf[k, LF_LENGTH]
+    phi = 2.0 * math.pi * u2
+    cp = math.cos(phi)
+    sp = math.sin(phi)
+    n = (cp * ey[0] + sp * ez[0], cp * ey[1] + sp * ez[1], cp * ey[2] + sp * ez[2])
+    r = lf[k, LF_RADIUS]
+    return (c[0] + a * ax[0] + r * n[0], c[1] + a * ax[1] + r * n[1], c[2] + a * ax[2] + r * n[2]), n
+
+
+@nb.njit(**INLINE_JIT)
+def _sample_cylinder(lf, k, p, u1, u2, L):
+    """A point uniformly by area on the side of a cylinder light of radiance L, as seen from p."""
+    q, nq = cylinder_point(lf, k, u1, u2)
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
+    d = math.sqrt(d2)
+    r = 1.0 / d
+    wi = (v[0] * r, v[1] * r, v[2] * r)
+    cos_l = -dot(nq, wi)
+    if cos_l <= 0.0:                           # the side facing away from p
         return wi, d, (0.0, 0.0, 0.0)
     g = cos_l * lf[k, LF_AREA] * (r * r)
     return wi, d, (L[0] * g, L[1] * g, L[2] * g)

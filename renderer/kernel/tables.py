@@ -53,9 +53,9 @@ MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROU
                           ('CLEARCOAT', 1), ('CC_ROUGH', 1)])
 MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1)])
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator
-# uses with the course's semantics (lights.sample_course_light)
+# uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X)
 LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1),
-                       ('COURSE', 1), ('COURSE_I', 3)])
+                       ('COURSE', 1), ('COURSE_I', 3), ('LENGTH', 1)])
 TEXTURE_I = Table('TI', [('OFFSET', 1), ('WIDTH', 1), ('HEIGHT', 1), ('CHANNELS', 1), ('WRAP_S', 1),
                          ('WRAP_T', 1)])
 TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4)])

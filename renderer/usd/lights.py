@@ -3,8 +3,10 @@
 ``L = color * intensity * 2**exposure`` (times the blackbody colour when
 ``enableColorTemperature``), then per type:
 
-* area lights (SphereLight with a radius, RectLight, DiskLight): `radiance` = L, divided by the
-  world-space surface area when ``normalize`` is on;
+* area lights (SphereLight with a radius, RectLight, DiskLight, CylinderLight): `radiance` = L,
+  divided by the world-space surface area when ``normalize`` is on (a CylinderLight's: its side,
+  2 pi r length; it emits outwards from its side only, not from its caps; ``treatAsLine``, a hint
+  for renderers that cannot draw cylinders, is not needed and ignored);
 * point (SphereLight with ``treatAsPoint`` or radius 0): `radiance` = radiant intensity I.  With
   ``normalize`` (or a zero radius, whose un-normalised power would be 0) I = L / 4, the limit of
   a normalised sphere (power independent of radius); a non-normalised ``treatAsPoint`` sphere of
@@ -14,7 +16,9 @@
 * DomeLight: L (multiplies the lat-long texture if any).
 
 `Light.matrix` is returned **rigid** (orthonormal, det +1; emission along its -Z): scale in the
-light's transform is folded into `radius` / `width` / `height`, which are world-space sizes.
+light's transform is folded into `radius` / `width` / `height` / `length`, which are world-space
+sizes (a CylinderLight's length scales with local X, its radius with the geometric mean of the Y and Z
+scales).
 """
 from __future__ import annotations
 
@@ -24,10 +28,11 @@ from typing import Callable, Optional
 import numpy as np
 from pxr import Usd, UsdLux
 
-from ..description import DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
+from ..description import CYLINDER, DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
 
 Warn = Callable[[str], None]
-LIGHT_TYPES = ('SphereLight', 'RectLight', 'DiskLight', 'DistantLight', 'DomeLight', 'DomeLight_1')
+LIGHT_TYPES = ('SphereLight', 'RectLight', 'DiskLight', 'CylinderLight', 'DistantLight', 'DomeLight',
+               'DomeLight_1')
 
 
 def rigid_frame(m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -55,10 +60,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     `load_texture(asset_path, owner) -> index` loads a DomeLight's lat-long image."""
     path, kind = str(prim.GetPath()), prim.GetTypeName()
     api = UsdLux.LightAPI(prim)
-    colour = np.array(api.GetColorAttr().Get(time), np.float64)
-    base = colour * float(api.GetIntensityAttr().Get(time)) * 2.0 ** float(api.GetExposureAttr().Get(time))
-    if api.GetEnableColorTemperatureAttr().Get(time):
-        base = base * np.array(UsdLux.BlackbodyTemperatureAsRgb(api.GetColorTemperatureAttr().Get(time)))
+    base = _base(api, time)
     normalize = bool(api.GetNormalizeAttr().Get(time))
     if not (np.all(np.isfinite(base)) and np.all(np.isfinite(to_world))):
         warn(f'{path}: non-finite light parameters or transform; light ignored')
@@ -139,8 +141,34 @@ def _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, t
             return None
         return Light(path=path, type=DISK, matrix=frame, radius=r * math.sqrt(cross),
                      radiance=_rgb(base / area if normalize else base))
+    if kind == 'CylinderLight':
+        return _cylinder_light(prim, path, frame, scale, base, normalize, time, warn)
     warn(f'{path}: {kind} is not supported; light ignored')
     return None
+
+
+def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Optional[Light]:
+    """A CylinderLight: along local X, `length` x scale X long, `radius` x sqrt(scale Y x scale Z)."""
+    light = UsdLux.CylinderLight(prim)
+    length = float(light.GetLengthAttr().Get(time)) * float(scale[0])
+    r = float(light.GetRadiusAttr().Get(time)) * math.sqrt(float(scale[1] * scale[2]))
+    if abs(scale[1] - scale[2]) > 1e-3 * max(scale[1], scale[2]):
+        warn(f'{path}: different Y and Z scales on a CylinderLight; using the mean radius {r:g}')
+    area = 2 * math.pi * r * length
+    if not area > 0:
+        warn(f'{path}: CylinderLight with zero area; light ignored')
+        return None
+    return Light(path=path, type=CYLINDER, matrix=frame, radius=r, length=length,
+                 radiance=_rgb(base / area if normalize else base))
+
+
+def _base(api: UsdLux.LightAPI, time: Usd.TimeCode) -> np.ndarray:
+    """color * intensity * 2**exposure (times the blackbody colour when enableColorTemperature)."""
+    colour = np.array(api.GetColorAttr().Get(time), np.float64)
+    base = colour * float(api.GetIntensityAttr().Get(time)) * 2.0 ** float(api.GetExposureAttr().Get(time))
+    if api.GetEnableColorTemperatureAttr().Get(time):
+        base = base * np.array(UsdLux.BlackbodyTemperatureAsRgb(api.GetColorTemperatureAttr().Get(time)))
+    return base
 
 
 def _rgb(v) -> tuple:

@@ -1,6 +1,6 @@
 """Every kind of light the path integrator samples with MIS is found by both strategies: light
-sampling alone and BSDF sampling alone converge to the same image for sphere, disk, distant (with
-an angle) and textured dome lights; delta lights are seen by light sampling; images are bit-identical
+sampling alone and BSDF sampling alone converge to the same image for sphere, disk, cylinder, distant
+(with an angle) and textured dome lights; delta lights are seen by light sampling; images are bit-identical
 across thread counts and splits into passes."""
 import numpy as np
 import pytest
@@ -37,6 +37,8 @@ LIGHTS = {
     'sphere': ([D.Light(path='/s', type=D.SPHERE, matrix=translate(1.0, 2.0, 1.0), radiance=(20.0,) * 3,
                         radius=0.25)], ()),
     'disk': ([_disk((-1.0, 2.5, 0.5), 0.4, (15.0,) * 3)], ()),
+    'cylinder': ([D.Light(path='/c', type=D.CYLINDER, matrix=translate(0.3, 1.6, -0.8), radiance=(8.0,) * 3,
+                          radius=0.25, length=1.2)], ()),
     'distant': ([D.Light(path='/d', type=D.DISTANT, matrix=np.linalg.inv(look_at((0, 0, 0), (-1, -2, -1)))
                          @ np.eye(4), radiance=(3.0,) * 3, angle=10.0)], ()),
     'dome': ([D.Light(path='/dome', type=D.DOME, matrix=np.eye(4), radiance=(1.0,) * 3, texture=0)], (_sky(),)),

@@ -15,9 +15,9 @@ def test_offsets_are_the_packed_declaration():
             T.MF_OPACITY, T.MF_SPECWF, T.MF_CLEARCOAT, T.MF_CC_ROUGH] == [0, 3, 6, 7, 8, 9, 10, 13, 16, 17, 18, 19, 20]
     assert T.MAT_F_COLS == 21 and T.MAT_I_COLS == 3
     assert (T.MI_MODEL, T.MI_DIFFUSE_TEX, T.MI_SPECULAR_TEX) == (0, 1, 2)
-    assert [T.LF_M, T.LF_RAD, T.LF_RADIUS, T.LF_W, T.LF_H, T.LF_COS_MAX, T.LF_AREA, T.LF_COURSE, T.LF_COURSE_I] == \
-        [0, 12, 15, 16, 17, 18, 19, 20, 21]
-    assert T.LI_F_COLS == 24
+    assert [T.LF_M, T.LF_RAD, T.LF_RADIUS, T.LF_W, T.LF_H, T.LF_COS_MAX, T.LF_AREA, T.LF_COURSE, T.LF_COURSE_I,
+            T.LF_LENGTH] == [0, 12, 15, 16, 17, 18, 19, 20, 21, 24]
+    assert T.LI_F_COLS == 25
     assert [T.C_M, T.C_M1, T.C_ORTHO, T.C_HALF_W, T.C_HALF_H, T.C_OFF_X, T.C_OFF_Y, T.C_LENS, T.C_FOCUS, T.C_NEAR,
             T.C_FAR, T.C_MOVING] == [0, 12, *range(24, 34)]
     assert T.CAM_COLS == 34
