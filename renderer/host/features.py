@@ -42,6 +42,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         course_lights=bool(not path and np.any(course)), lux_lights=bool(path or np.any(~course)),
         dome_texture=bool(np.any(data.li_tex[domes] >= 0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
+        surface_lights=bool(path and lights is not None and lights.n_surface > 0),
         textures=bool(np.any(mi[:, MI_DIFFUSE_TEX] >= 0) or np.any(mi[:, MI_SPECULAR_TEX] >= 0)),
         opacity=bool(np.any(mf[preview, MF_OPACITY] < 1.0)),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),

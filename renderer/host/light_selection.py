@@ -8,14 +8,19 @@ integrator never builds it); the dome's sampling tables.
 The tree's phi of a light (only ratios matter, and any positive choice keeps the estimator unbiased) is
 its largest radiant *intensity*, so that a leaf's importance, phi cos / d^2, is the irradiance the light
 delivers (exactly for a small light): point I, rect and disk A L (seen face on), sphere pi r^2 L, cylinder
-2 r l L (seen across its axis).  Total powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would
+2 r l L (seen across its axis), emissive surface A L (a flat one seen face on; no mesh of that area shows
+more: `surface_lights.py`).  Total powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would
 weigh a point light 4 times too much against an area light of the same irradiance, and the tree would
 spend light samples on minor point lights beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
 tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (texture mean), R the radius
 of the scene's bounds.  Luminances of the RGB values.
+
+Lights are numbered as the scene's (`desc.lights`, the light table), then its emissive surfaces
+(`surface_first` on: `surface_lights.py`).
 """
 from __future__ import annotations
 
+import warnings
 from collections import namedtuple
 
 import numpy as np
@@ -24,10 +29,12 @@ from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
 from .light_tree import light_tree
+from .surface_lights import surface_lights, surface_lights_none
 
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
-                                       'prim_light'])
+                                       'prim_light', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
+                                       'sl_row', 'sl_idx'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -96,16 +103,19 @@ def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list
     return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
 
 
-def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device, light_group: int) -> tuple:
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device, light_group: int,
+                data=None) -> tuple:
     """(PathLights record, the light-shape Embree scene or None) of a built scene (li_f: the light
     table; bounds (2, 3) of the scene; device: its Embree device; light_group: the instance geometry id
-    the light-shape scene will have in the path integrator's top level, `build.top_with_light_shapes`)."""
+    the light-shape scene will have in the path integrator's top level, `build.top_with_light_shapes`;
+    data: its `build.SceneData`, whose emissive surfaces become lights; None: none do)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
     dome_i, dome_cdf, dome_mean = dome_tables(desc)
+    surf = surface_lights(data, len(desc.lights), _warner(desc)) if data is not None else None
     tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
-        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean))
+        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean), surf.bounds if surf else ())
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)
@@ -115,4 +125,22 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
                       shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
                       dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if scene else -1,
-                      geom_off=geom_off, prim_light=prim_light), scene
+                      geom_off=geom_off, prim_light=prim_light, **_surface_fields(desc, surf)), scene
+
+
+def _warner(desc: D.SceneDescription):
+    """warn(message): a warning about the scene found at render time (the scene's warnings were printed
+    when it was read: also a RuntimeWarning)."""
+    def warn(message: str) -> None:
+        desc.warnings.append(message)
+        warnings.warn(message, RuntimeWarning, stacklevel=2)
+    return warn
+
+
+def _surface_fields(desc: D.SceneDescription, surf) -> dict:
+    """The PathLights fields of the emissive surfaces (`surface_lights.py`; placeholders when none)."""
+    if surf is None:
+        surf = surface_lights_none()
+    n = len(surf.bounds)
+    return {'surface_first': len(desc.lights), 'n_surface': n, 'sl_f': surf.sl_f, 'sl_i': surf.sl_i,
+            'sl_tri': surf.sl_tri, 'sl_cdf': surf.sl_cdf, 'sl_row': surf.sl_row, 'sl_idx': surf.sl_idx}

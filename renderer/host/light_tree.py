@@ -130,10 +130,14 @@ def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray,
             leaves)
 
 
-def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
-    """(tree_f, tree_i, trail, depth, unbounded) of the scene's lights (`power`: one per light)."""
-    n = max(len(desc.lights), 1)
+def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=()):
+    """(tree_f, tree_i, trail, depth, unbounded) of the scene's lights (`power`: one per light) and of
+    `extra` lights (bounds as `light_bounds` gives them: the emissive surfaces, `surface_lights.py`),
+    numbered after the scene's."""
+    n = max(len(desc.lights) + len(extra), 1)
     idx, bounds = light_bounds(desc, li_f, power)
+    idx += [len(desc.lights) + j for j in range(len(extra))]
+    bounds += list(extra)
     tree_f, tree_i, leaves = build_tree(idx, bounds)
     trail = np.zeros(n, np.int64)
     depth = np.full(n, -1, np.int64)                   # -1: not in the tree

@@ -103,7 +103,7 @@ class Renderer:
         if self._lights is None:
             d = self.built.data
             self._lights, self._light_scene = path_lights(self.desc, d.li_f, self.built.top.bounds(),
-                                                          self.built.device, len(self.built.top.groups))
+                                                          self.built.device, len(self.built.top.groups), data=d)
             if self._light_scene is not None:
                 self._path_top = top_with_light_shapes(self.built, self._light_scene)
         return self._lights

@@ -56,6 +56,7 @@ class Features:
     lux_lights: bool         # a light the cook integrator shades with UsdLux radiometry (every light in path)
     dome_texture: bool       # a dome light with a lat-long image
     light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
+    surface_lights: bool     # path: an emissive surface is a light (host/surface_lights.py)
     textures: bool           # a material with an image texture
     opacity: bool            # a UsdPreviewSurface with opacity < 1
     emission: bool           # a material with emissive colour
@@ -90,7 +91,7 @@ class Features:
 
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True, lux_lights=True, dome_texture=True,
-               light_shapes=True, textures=True, opacity=True, emission=True, clearcoat=True, spheres=True,
+               light_shapes=True, surface_lights=True, textures=True, opacity=True, emission=True, clearcoat=True, spheres=True,
                normals=True, uvs=True, xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules

@@ -2,9 +2,10 @@
 by multiple importance sampling (Veach 1997, ch. 9; power heuristic, beta = 2).
 
 At every vertex a path collects the light it sees (emission of the light shapes its last ray
-crossed, of the surface it hit, of the sky if it escaped: MIS-weighted against the light sample
-that could have found the same light), then samples one light chosen from the light tree
-(`light_tree.choose_light`: by power, distance and orientation) towards which it casts a shadow ray, then samples its BSDF (`bsdf.sample`) for the
+crossed, of the surface it hit - emissive surfaces are lights too, `surface_lights.py` -, of the sky
+if it escaped: MIS-weighted against the light sample that could have found the same light), then
+samples one light chosen from the light tree (`light_tree.choose_light`: by power, distance and
+orientation) towards which it casts a shadow ray, then samples its BSDF (`bsdf.sample`) for the
 next ray.  Delta lights (point, distant without angle) are found by next-event estimation alone,
 delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D counts bounces as pbrt does:
 D = 0 is emission only, D = 1 direct light only.  After RR_DEPTH bounces, Russian roulette ends a
@@ -37,7 +38,7 @@ from .bsdf import BLACK, course_bsdf, evaluate, is_delta, preview_bsdf, sample
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
-                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY)
+                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission
@@ -47,6 +48,7 @@ from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .shapes import hit_gprim
+from .surface_lights import shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
@@ -101,7 +103,10 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
     pl = pk * pdf
     w = 1.0 if (delta or strategy == NEE_ONLY) else pl * pl / (pl * pl + pb * pb)
     smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-    vis = shadow_transmittance(S, tr, vtx.po, wi, smax, vtx.time)
+    ws = wi
+    if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
+        ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
+    vis = shadow_transmittance(S, tr, vtx.po, ws, smax, vtx.time)
     if vis == 0.0:
         return BLACK
     s = vis * w / pl
@@ -177,6 +182,27 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
     return hit, (float(tr.f[TFAR]) if hit else np.inf), e
 
 
+@nb.njit(**SHADING_INLINE_JIT)
+def _n_lights(S, L):
+    """The number of lights a light sample can choose from (the scene's, its emissive surfaces)."""
+    n = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
+    if F_SURFACE_LIGHTS:
+        n += L.n_surface
+    return n
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def hit_emission(S, L, tr, sp, d, prev):
+    """Emission of the surface at shading point sp, hit by a ray along d that left `prev`: the lights
+    among emissive surfaces MIS-weighted (`surface_lights.surface_emission`), the others (and every
+    emissive surface when the scene has no surface light) with weight 1."""
+    mf = S.mat_f
+    em = (float(mf[sp.mat, MF_EMIT]), float(mf[sp.mat, MF_EMIT + 1]), float(mf[sp.mat, MF_EMIT + 2]))
+    if F_SURFACE_LIGHTS and L.n_surface > 0:
+        return surface_emission(S, L, tr.u, em, (sp.p, sp.ng, d), prev)
+    return em
+
+
 @nb.njit(**STAGE_JIT)
 def trace_path(S, L, tr, pp, path, ray, packet):
     """Radiance along the camera ray `ray` of `path` (its sample key, its lane of the camera `packet`,
@@ -186,7 +212,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
     time = path.time
     o, d = ray
     osc = S.offset_scale[0]
-    n_lights = S.li_type.shape[0] if S.li_type[0] >= 0 else 0
+    n_lights = _n_lights(S, L)
     mf = S.mat_f
     Lo = BLACK
     T = (1.0, 1.0, 1.0)
@@ -213,9 +239,8 @@ def trace_path(S, L, tr, pp, path, ray, packet):
                     o = _origin(p, (-ng[0], -ng[1], -ng[2]), osc)
                     continue
                 ul = min(ul / opacity, 0.99999994)
-        if F_EMISSION:       # emissive surfaces (UsdPreviewSurface emissiveColor): weight 1, no light sample draws them
-            Lo = _add(Lo, T, (float(mf[sp.mat, MF_EMIT]), float(mf[sp.mat, MF_EMIT + 1]),
-                              float(mf[sp.mat, MF_EMIT + 2])))
+        if F_EMISSION:
+            Lo = _add(Lo, T, hit_emission(S, L, tr, sp, d, prev))
         if depth == max_depth:
             break
         b = vertex_bsdf(S, sp)

@@ -71,7 +71,12 @@ CAMERA = Table('C', [('M', 12), ('M1', 12), ('ORTHO', 1), ('HALF_W', 1), ('HALF_
 LIGHT_TREE = Table('T', [('C', 3), ('HALF_DIAG', 1), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O', 1), ('SIN_O', 1),
                          ('COS_E', 1), ('TWO_SIDED', 1)])
 
-TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE)
+# the path integrator's emissive surfaces as lights (host/surface_lights.py, kernel/surface_lights.py): a
+# light's emitted radiance and total area (float64); its first world triangle and their count (int64)
+SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1)])
+SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1)])
+
+TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE, SURFACE_LIGHT_F, SURFACE_LIGHT_I)
 for _t in TABLES:
     globals().update(_t.constants())
 MAT_F_COLS = MATERIAL_F.width
@@ -90,6 +95,6 @@ WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR, WRAP_BLACK = 0, 1, 2, 3
 WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'black': WRAP_BLACK}
 
 __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE_F',
-           'CAMERA', 'LIGHT_TREE', 'TREE_COLS', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
+           'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_HAS_NORMALS',
            'GP_HAS_UVS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

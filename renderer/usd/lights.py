@@ -26,7 +26,7 @@ import math
 from typing import Callable, Optional
 
 import numpy as np
-from pxr import Usd, UsdLux
+from pxr import Usd, UsdGeom, UsdLux
 
 from ..description import CYLINDER, DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
 
@@ -169,6 +169,48 @@ def _base(api: UsdLux.LightAPI, time: Usd.TimeCode) -> np.ndarray:
     if api.GetEnableColorTemperatureAttr().Get(time):
         base = base * np.array(UsdLux.BlackbodyTemperatureAsRgb(api.GetColorTemperatureAttr().Get(time)))
     return base
+
+
+def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optional[tuple]:
+    """The emitted radiance of a Mesh with UsdLux MeshLightAPI (or of a GeomSubset of one), None for
+    any other prim: L as for the other lights, divided by the mesh's world-space area (at this prim's
+    placement) when ``normalize`` is on.  The renderer gives it to the mesh as its material's emission
+    (replacing the material's emissiveColor; `MaterialTable.emitting`): emissive surfaces are lights of
+    the path integrator (`host/surface_lights.py`)."""
+    if prim.IsA(UsdGeom.Subset):
+        prim = prim.GetParent()
+    if not prim or not prim.HasAPI(UsdLux.MeshLightAPI):
+        return None
+    api = UsdLux.LightAPI(prim)
+    base = _base(api, time)
+    if api.GetNormalizeAttr().Get(time):
+        area = _mesh_area(prim, time)
+        if not area > 0:
+            warn(f'{prim.GetPath()}: MeshLightAPI on a mesh of zero area; no emission')
+            return None
+        base = base / area
+    if not np.all(np.isfinite(base)):
+        warn(f'{prim.GetPath()}: non-finite MeshLightAPI parameters; no emission')
+        return None
+    return _rgb(base)
+
+
+def _mesh_area(prim: Usd.Prim, time: Usd.TimeCode) -> float:
+    """World-space area of a Mesh prim's faces (fans of its polygons)."""
+    mesh = UsdGeom.Mesh(prim)
+    pts = np.array(mesh.GetPointsAttr().Get(time) or [], np.float64).reshape(-1, 3)
+    counts = np.array(mesh.GetFaceVertexCountsAttr().Get(time) or [], np.int64)
+    idx = np.array(mesh.GetFaceVertexIndicesAttr().Get(time) or [], np.int64)
+    if not len(pts) or not len(counts) or counts.sum() != len(idx) or idx.min() < 0 or idx.max() >= len(pts):
+        return 0.0
+    m = np.array(UsdGeom.Xformable(prim).ComputeLocalToWorldTransform(time)).T
+    world = pts @ m[:3, :3].T + m[:3, 3]
+    start = np.cumsum(counts) - counts
+    fans = [(idx[s], idx[s + j], idx[s + j + 1]) for s, c in zip(start, counts) for j in range(1, c - 1)]
+    if not fans:
+        return 0.0
+    a, b, c = (world[np.array(f)] for f in zip(*fans))
+    return float(0.5 * np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
 
 
 def _rgb(v) -> tuple:

@@ -17,6 +17,7 @@ image file is decoded once (sRGB-decoded when the file is 8-bit sRGB or the shad
 """
 from __future__ import annotations
 
+import dataclasses
 import os
 import tempfile
 from typing import Callable
@@ -72,6 +73,16 @@ class MaterialTable:
         if key not in self._index:
             label = '<grey>' if colour == GREY else f'<displayColor {colour[0]:.3g} {colour[1]:.3g} {colour[2]:.3g}>'
             self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0))
+        return self._index[key]
+
+    def emitting(self, index: int, radiance: tuple) -> int:
+        """Index of material `index` emitting `radiance` instead of its own emission (a mesh with
+        UsdLux MeshLightAPI: `lights.mesh_light_radiance`)."""
+        key = ('emitting', index, radiance)
+        if key not in self._index:
+            base = self.materials[index]
+            self._index[key] = self._add(dataclasses.replace(base, path=f'{base.path} <MeshLightAPI>',
+                                                             emission=radiance))
         return self._index[key]
 
     def _add(self, material: Material) -> int:

@@ -34,7 +34,7 @@ from .camera import (default_camera, read_camera, read_render_settings, render_s
 from .geometry import GeometryError, convert_gprim, points_box
 from .geometry_cache import GeometryCache
 from .instancing import INHERIT, RENDERED, InstanceGraph, Placements
-from .lights import default_lights, read_light
+from .lights import default_lights, mesh_light_radiance, read_light
 from .materials import MaterialTable
 
 MAX_LIGHTS = 10_000
@@ -119,6 +119,7 @@ class _Reader:
         self.skipped: list[str] = []
         self.materials = MaterialTable(self.tc, self.warn)
         self.backgrounds: set[str] = set()     # DomeLights marked rtc:background (course background colour)
+        self.mesh_lights = 0                   # gprims (per binding resolution) with UsdLux MeshLightAPI
 
     def warn(self, message: str) -> None:
         self.warnings.append(message)
@@ -176,7 +177,7 @@ class _Reader:
         else:
             desc.camera = default_camera(lo, hi, fit)
             self.warn('no camera in the stage: using a default camera framing the scene bounds')
-        if not lights:
+        if not lights and not self.mesh_lights:
             desc.lights = default_lights(desc.camera.matrix)
             self.warn('no lights in the stage: added a default DistantLight headlight along the view '
                       'direction (irradiance 3) and a dim constant DomeLight (radiance 0.1)')
@@ -327,6 +328,10 @@ class _Reader:
                 prim, mat = result[key]
                 found = self.materials.bound(mat) if mat else None
                 index[key] = found if found is not None else self.materials.fallback(prim)
+                glow = mesh_light_radiance(prim, self.tc, self.warn)
+                if glow is not None:                 # UsdLux MeshLightAPI: the mesh emits
+                    index[key] = self.materials.emitting(index[key], glow)
+                    self.mesh_lights += 1
         for (n, variant, subset, _, _, _) in rows:
             for s in subset:
                 s.record.material = index[(n, None, s.binding_path)]

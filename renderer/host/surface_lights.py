@@ -1,0 +1,177 @@
+"""Emissive surfaces as lights of the path integrator: every static placement of a mesh gprim whose
+resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI, which
+the stage reader turns into that material's emission) is one light of the light tree, sampled
+uniformly by area over its world-space triangles.
+
+Sidedness: an emissive surface emits the same radiance from both of its sides (as Storm, Cycles and
+today's emission at a hit do; the renderer shades every gprim on both sides).  Light samples use
+|cos| at the light; the light tree's phi (largest intensity, `light_selection.py`) is A L, its cone the
+triangles' normal cone marked two-sided.
+
+Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first + j` of the tree):
+  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A
+  sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles
+  sl_tri float64 (triangles, 3, 3): world (camera-relative) triangles, one copy per placement
+  sl_cdf float64 (triangles,): cumulative area of a light's triangles over A, ending at exactly 1
+  sl_row int64 (placement rows of `SceneData`): offset into sl_idx of the row's gprims, -1 if none emits
+  sl_idx int64: per gprim slot of such a row, its light (tree index) or -1
+The world triangles are copied per placement: meant for the few emissive meshes scenes have; more than
+MAX_TRIANGLES of them are warned about (memory, build time).
+
+Not lights (their emission is still added where a ray hits them, with weight 1, as before): emissive
+spheres, moving placements (a light sample would need the placement at the ray's time), emissive
+UsdPreviewSurfaces with opacity < 1 (a path crosses them with probability 1 - opacity), materials whose
+emission has no luminance.
+"""
+from __future__ import annotations
+
+from collections import namedtuple
+
+import numpy as np
+
+from .. import description as D
+from ..kernel.tables import GP_MESH, MF_EMIT, MF_OPACITY, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I
+from .light_tree import ENTIRE
+
+MAX_TRIANGLES = 100_000
+_LUM = np.array([0.2126, 0.7152, 0.0722])
+SurfaceLights = namedtuple('SurfaceLights', ['sl_f', 'sl_i', 'sl_tri', 'sl_cdf', 'sl_row', 'sl_idx', 'bounds'])
+
+
+def _triangle_counts(data) -> np.ndarray:
+    """Triangles of each gprim (0 for a sphere)."""
+    counts = np.zeros(len(data.gp_kind), np.int64)
+    mesh = np.flatnonzero(data.gp_kind == GP_MESH)
+    if len(mesh):
+        off = data.gp_off[mesh]
+        order = np.argsort(off, kind='stable')
+        ends = np.append(off[order][1:], len(data.tri_v))
+        counts[mesh[order]] = ends - off[order]
+    return counts
+
+
+def _emitting(data, rows: np.ndarray, slot: int, g: int):
+    """(materials of gprim slot `slot` (gprim g) at placement rows `rows`, mask of those that make it a
+    light) with the material resolution of `kernel/shapes.surface`."""
+    base = data.in_matset[rows]
+    mat = np.full(len(rows), -1, np.int64)
+    has = base >= 0
+    mat[has] = data.matset[base[has] + slot]
+    mat = np.where(mat >= 0, mat, data.gp_material[g])
+    emit = data.mat_f[mat, MF_EMIT:MF_EMIT + 3].astype(np.float64)
+    see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (data.mat_f[mat, MF_OPACITY] < 1.0)
+    return mat, (emit @ _LUM > 0.0) & np.all(np.isfinite(emit), 1) & ~see_through
+
+
+def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
+    """Light-tree bounds of each placement's triangles tri (R, n, 3, 3): box, phi, the normals' cone
+    (two-sided)."""
+    cr = np.cross(tri[:, :, 1] - tri[:, :, 0], tri[:, :, 2] - tri[:, :, 0])
+    out = []
+    for r in range(len(tri)):
+        ok = np.linalg.norm(cr[r], axis=1) > 0.0
+        w = cr[r].sum(0)
+        nw = float(np.linalg.norm(w))
+        cone = ENTIRE
+        if nw > 0.0 and ok.any():
+            w = w / nw
+            n = cr[r][ok] / np.linalg.norm(cr[r][ok], axis=1)[:, None]
+            cos_o = float(np.min(n @ w))
+            if cos_o >= 0.0:
+                cone = (w, min(cos_o, 1.0))
+        pts = tri[r].reshape(-1, 3)
+        out.append((pts.min(0), pts.max(0), float(phi[r]), cone, 0.0, True))
+    return out
+
+
+def surface_lights(data, first: int, warn=None) -> SurfaceLights:
+    """The emissive surfaces of the built scene tables `data` (`build.SceneData`) as lights numbered
+    from `first` (the number of the scene's other lights); `warn(message)` is told of a scene with more
+    than MAX_TRIANGLES emissive triangles."""
+    glowing = np.any(data.mat_f[:, MF_EMIT:MF_EMIT + 3] != 0.0, axis=1)
+    if not glowing.any():                         # the common case: nothing to look at
+        return surface_lights_none()
+    counts = _triangle_counts(data)
+    n_rows = len(data.in_proto)
+    xf = data.in_xf[:n_rows]
+    static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
+    ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
+    groups = []                                   # (rows, slot, world triangles (R, n, 3, 3), emission (R, 3))
+    for c in range(len(data.pr_gp_start)):
+        rows = np.flatnonzero((data.in_proto[:n_rows] == c) & static)
+        if not len(rows):
+            continue
+        own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
+        for g in range(int(data.pr_gp_start[c]), int(ends[c])):
+            if data.gp_kind[g] != GP_MESH or counts[g] == 0 or (own and not glowing[data.gp_material[g]]):
+                continue
+            mat, ok = _emitting(data, rows, g - int(data.pr_gp_start[c]), g)
+            if not ok.any():
+                continue
+            tv = data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]].astype(np.float64)
+            m = xf[rows[ok], 0]
+            world = np.einsum('rij,nvj->rnvi', m[:, :, :3], tv) + m[:, None, None, :, 3]
+            groups.append((rows[ok], g - int(data.pr_gp_start[c]), world,
+                           data.mat_f[mat[ok], MF_EMIT:MF_EMIT + 3].astype(np.float64)))
+    n_tri = sum(w.shape[0] * w.shape[1] for _, _, w, _ in groups)
+    if n_tri > MAX_TRIANGLES and warn is not None:
+        warn(f'{n_tri} emissive triangles (placements of emissive meshes) are lights of the path integrator: '
+             f'more than {MAX_TRIANGLES}, they cost memory and build time (one world-space copy each)')
+    return _tables(data, groups, first)
+
+
+def _tables(data, groups: list, first: int) -> SurfaceLights:
+    sl_f, sl_i, tris, cdfs, bounds = [], [], [], [], []
+    row_lights = []                               # (rows, slot, light numbers)
+    n_light = n_tri = 0
+    for rows, slot, world, emit in groups:
+        cr = np.cross(world[:, :, 1] - world[:, :, 0], world[:, :, 2] - world[:, :, 0])
+        area = 0.5 * np.linalg.norm(cr, axis=2)                       # (R, n)
+        total = area.sum(1)
+        keep = total > 0.0
+        rows, world, emit, area, total = rows[keep], world[keep], emit[keep], area[keep], total[keep]
+        R, n = area.shape
+        if not R:
+            continue
+        cdf = np.cumsum(area, 1) / total[:, None]
+        cdf[:, -1] = 1.0
+        f = np.zeros((R, SURFACE_LIGHT_F.width))
+        i = np.zeros((R, SURFACE_LIGHT_I.width), np.int64)
+        for r in range(R):
+            SURFACE_LIGHT_F.write(f[r], RAD=emit[r], AREA=total[r])
+            SURFACE_LIGHT_I.write(i[r], FIRST=n_tri + r * n, COUNT=n)
+        sl_f.append(f)
+        sl_i.append(i)
+        tris.append(world.reshape(-1, 3, 3))
+        cdfs.append(cdf.ravel())
+        bounds += _bounds(world, total * (emit @ _LUM))
+        row_lights.append((rows, slot, first + n_light + np.arange(R)))
+        n_light += R
+        n_tri += R * n
+    return SurfaceLights(
+        sl_f=np.concatenate(sl_f) if sl_f else np.zeros((1, SURFACE_LIGHT_F.width)),
+        sl_i=np.concatenate(sl_i) if sl_i else np.zeros((1, SURFACE_LIGHT_I.width), np.int64),
+        sl_tri=np.ascontiguousarray(np.concatenate(tris)) if tris else np.zeros((1, 3, 3)),
+        sl_cdf=np.concatenate(cdfs) if cdfs else np.ones(1),
+        bounds=bounds, **_hit_map(data, row_lights))
+
+
+def _hit_map(data, row_lights: list) -> dict:
+    """sl_row, sl_idx: the light of a hit's (placement row, gprim slot)."""
+    if not row_lights:
+        return {'sl_row': np.full(1, -1, np.int64), 'sl_idx': np.full(1, -1, np.int64)}
+    ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
+    n_gprims = ends - data.pr_gp_start
+    lit = np.unique(np.concatenate([rows for rows, _, _ in row_lights]))
+    size = n_gprims[data.in_proto[lit]]
+    sl_row = np.full(len(data.in_proto), -1, np.int64)
+    sl_row[lit] = np.cumsum(size) - size
+    sl_idx = np.full(max(int(size.sum()), 1), -1, np.int64)
+    for rows, slot, lights in row_lights:
+        sl_idx[sl_row[rows] + slot] = lights
+    return {'sl_row': sl_row, 'sl_idx': sl_idx}
+
+
+def surface_lights_none() -> SurfaceLights:
+    """The tables of a scene without emissive-surface lights (placeholders the kernels never read)."""
+    return _tables(None, [], 0)

@@ -1,0 +1,126 @@
+"""Emissive surfaces as lights of the path integrator (tables: `host/surface_lights.py`): a light
+sample on one, and the MIS weight of its emission where a BSDF-sampled ray hits it.
+
+A light sample picks a triangle of the light by area (its cumulative-area table) and a point uniformly
+on it: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total area.  Both sides emit (|cos_l|;
+the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
+the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: a sphere,
+a moving placement, a see-through material) keeps weight 1, as before surfaces were lights.
+
+`L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
+k - L.surface_first.
+"""
+import math
+
+import numba as nb
+
+from .jit import SHADING_INLINE_JIT as _JIT
+from .light_tree import light_pmf
+from .tables import SLF_AREA, SLF_RAD, SLI_COUNT, SLI_FIRST
+from .trace import GEOM_ID, INST_ID, INST_PRIM_ID
+from .vecmath import cross, dot, normalize, offset_origin, sub
+
+ZERO = (0.0, 0.0, 0.0)
+NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
+ONE_MINUS = 0.99999994
+
+
+@nb.njit(**_JIT)
+def _triangle(cdf, first, n, u):
+    """(i, u rescaled to [0, 1)): the triangle i of [0, n) with cdf[first + i - 1] <= u < cdf[first + i]
+    (cdf[first - 1] read as 0)."""
+    a = 0
+    b = n - 1
+    while a < b:
+        m = (a + b) // 2
+        if u < cdf[first + m]:
+            b = m
+        else:
+            a = m + 1
+    lo = cdf[first + a - 1] if a > 0 else 0.0
+    w = cdf[first + a] - lo
+    return a, (min((u - lo) / w, ONE_MINUS) if w > 0.0 else 0.0)
+
+
+@nb.njit(**_JIT)
+def sample_surface(S, L, k, p, u1, u2):
+    """`light_sampling.sample_ld` of surface light k: (wi, dist, Le, pdf, delta = False) seen from p.
+    The point p + dist wi is the sampled point moved just off the surface towards p (`offset_origin`):
+    the light is real geometry, which the shadow ray (`shadow_ray`) must stop short of; pdf is that of
+    the point on the surface."""
+    j = k - L.surface_first
+    first = L.sl_i[j, SLI_FIRST]
+    i, u = _triangle(L.sl_cdf, first, L.sl_i[j, SLI_COUNT], u1)
+    tri = L.sl_tri[first + i]
+    su = math.sqrt(u)
+    b1 = u2 * su
+    b2 = 1.0 - su
+    b0 = 1.0 - b1 - b2
+    q = (b0 * tri[0, 0] + b1 * tri[1, 0] + b2 * tri[2, 0], b0 * tri[0, 1] + b1 * tri[1, 1] + b2 * tri[2, 1],
+         b0 * tri[0, 2] + b1 * tri[1, 2] + b2 * tri[2, 2])
+    e1 = (tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2])
+    e2 = (tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2])
+    nrm = normalize(cross(e1, e2))
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return NONE
+    d = math.sqrt(d2)
+    wi = (v[0] / d, v[1] / d, v[2] / d)
+    c = dot(nrm, wi)
+    if c == 0.0:
+        return NONE
+    pdf = d2 / (abs(c) * L.sl_f[j, SLF_AREA])
+    qo = offset_origin(q, (-nrm[0], -nrm[1], -nrm[2]) if c > 0.0 else nrm, S.offset_scale[0])
+    v = sub((float(qo[0]), float(qo[1]), float(qo[2])), p)
+    d = math.sqrt(dot(v, v))
+    if not d > 0.0:
+        return NONE
+    return (v[0] / d, v[1] / d, v[2] / d), d, (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2]), \
+        pdf, False
+
+
+@nb.njit(**_JIT)
+def shadow_ray(vtx, wi, dist, eps):
+    """(direction, tmax) of the shadow ray from the vertex's ray origin vtx.po to the point p + dist wi
+    that `sample_surface` gave (off the light's surface): aimed point to point, because po is off the
+    receiver's surface and a ray from it along wi would meet the light's own surface before its end."""
+    p, po = vtx.p, vtx.po
+    v = (p[0] + dist * wi[0] - po[0], p[1] + dist * wi[1] - po[1], p[2] + dist * wi[2] - po[2])
+    d = math.sqrt(dot(v, v))
+    return (v[0] / d, v[1] / d, v[2] / d), d * (1.0 - eps)
+
+
+@nb.njit(**_JIT)
+def light_of_hit(S, L, u):
+    """The light (tree index) of the surface hit in the ray buffer's ids `u`, or -1."""
+    row = S.grp_base[u[INST_ID]] + u[INST_PRIM_ID]
+    base = L.sl_row[row]
+    if base < 0:
+        return -1
+    proto = S.in_proto[row]
+    g = S.pr_geom_gp[S.pr_geom_off[proto] + u[GEOM_ID]]
+    return L.sl_idx[base + g - S.pr_gp_start[proto]]
+
+
+@nb.njit(**_JIT)
+def surface_emission(S, L, u, Le, hit, prev):
+    """Emission Le of the surface hit (ids `u` of the ray buffer; hit = (its point, its geometric
+    normal, the ray's direction)) MIS-weighted against the light sample that could have drawn it;
+    prev = (p0, n0, bsdf pdf, mode) as in `light_sampling.shape_emission`."""
+    k = light_of_hit(S, L, u)
+    if k < 0:
+        return Le
+    p0, n0, pb, mode = prev
+    if mode == 2:
+        return ZERO
+    if mode == 1:
+        return Le
+    p, ng, d = hit
+    v = sub(p, p0)
+    cos_l = abs(dot(ng, d))
+    if not cos_l > 0.0:
+        return Le
+    pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * L.sl_f[k - L.surface_first, SLF_AREA])
+    w = pb * pb / (pb * pb + pl * pl)
+    return w * Le[0], w * Le[1], w * Le[2]

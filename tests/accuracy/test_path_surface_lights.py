@@ -1,0 +1,102 @@
+"""Emissive surfaces are lights of the path integrator (host/surface_lights.py): an emissive quad mesh
+lights a Lambert floor as a RectLight of the same size, placement and radiance does (Lambert's polygon
+formula), by light sampling alone, BSDF sampling alone and MIS; MIS beats BSDF sampling alone when an
+emissive mesh is the only light; every placement of an instanced emissive prototype is a light of its
+own."""
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.render import RenderOptions, Renderer
+from tests.renderer import test_integrator as ti
+from tests.renderer.handmade import ortho_down, quad, rect_light, scene, translate
+
+N, WIDTH, H, A, B, LR = 24, 4.0, 1.0, 1.2, 0.8, 2.0
+FLOOR = D.Material('/floor', model=D.LAMBERTIAN, diffuse=(0.5, 0.5, 0.5))
+
+
+def emitter(a=A, b=B, y=H, material=1, path='/emitter', x=0.0):
+    """An a x b quad mesh in the plane y, facing down (its winding's normal is -Y)."""
+    pts = np.array([[x - a / 2, y, -b / 2], [x + a / 2, y, -b / 2], [x + a / 2, y, b / 2], [x - a / 2, y, b / 2]])
+    return D.Mesh(path=path, points=pts, triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32), material=material)
+
+
+def glow(radiance=LR):
+    """Emits `radiance`, reflects nothing."""
+    return D.Material('/glow', model=D.LAMBERTIAN, diffuse=(0.0, 0.0, 0.0), emission=(radiance,) * 3)
+
+
+def mesh_scene(a=A, b=B):
+    return scene([D.Container('/', meshes=[quad(40.0), emitter(a, b)])], [FLOOR, glow()], [],
+                 ortho_down(width=WIDTH), width=N, height=N)
+
+
+def rect_scene():
+    return scene([D.Container('/', meshes=[quad(40.0)])], [FLOOR], [rect_light((0.0, H, 0.0), A, B, (LR,) * 3)],
+                 ortho_down(width=WIDTH), width=N, height=N)
+
+
+def polygon_reference(a=A, b=B):
+    corners = [(-a / 2, H, -b / 2), (a / 2, H, -b / 2), (a / 2, H, b / 2), (-a / 2, H, b / 2)]
+    return ti.pixel_average(lambda x, z: 0.5 / np.pi * ti.polygon_irradiance(x, z, corners, LR), N, WIDTH, sub=8)
+
+
+def _beside(a=A, b=B):
+    """Pixels the emitter (seen from above, where the mesh emits too and hides the floor) does not cover."""
+    c = ti.pixel_centers(N, WIDTH)
+    half = 0.5 * WIDTH / N
+    X, Z = np.meshgrid(c, c)
+    return (np.abs(X) > a / 2 + half) | (np.abs(Z) > b / 2 + half)
+
+
+def _render(desc, spp, strategy='mis', seed=0, sampler='sobol'):
+    with Renderer(desc) as r:
+        return r.render(RenderOptions(spp=spp, integrator='path', strategy=strategy, filter='box', seed=seed,
+                                      sampler=sampler)).image[..., 0].astype(np.float64)
+
+
+@pytest.mark.parametrize('strategy', ['mis', 'nee', 'bsdf'])
+def test_an_emissive_quad_lights_the_floor_as_a_rect_light(strategy):
+    ref = polygon_reference()
+    keep = _beside()
+    mesh = _render(mesh_scene(), 2048 if strategy == 'bsdf' else 256, strategy)
+    rect = _render(rect_scene(), 256)
+    assert rect[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.005)
+    assert mesh[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (mesh[keep].mean(), ref[keep].mean())
+    err = mesh[keep] - ref[keep]
+    assert np.sqrt(np.mean(err ** 2)) < 0.02 * ref.max(), np.sqrt(np.mean(err ** 2))
+
+
+def test_mis_beats_bsdf_sampling_when_an_emissive_mesh_is_the_only_light():
+    a, b = 0.3, 0.3
+    ref = polygon_reference(a, b)
+    keep = _beside(a, b)
+    desc = mesh_scene(a, b)
+    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
+            for s in ('mis', 'bsdf')}
+    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+
+
+def test_each_placement_of_an_instanced_emissive_prototype_is_a_light():
+    """Two placements mirrored about x = 0 light the floor as one placement and its mirror image do."""
+    proto = D.Container('/proto', meshes=[emitter(0.6, 0.6, x=0.0, material=1)])
+    floor = D.Container('/', meshes=[quad(40.0)])
+
+    def placed(xs):
+        inst = D.Instances(container=np.array([0] + [1] * len(xs), np.int32),
+                           matrices=np.array([np.eye(4)] + [translate(x, 0.0, 0.0) for x in xs])[:, None],
+                           material_set=np.zeros(1 + len(xs), np.int32), material_sets=[()])
+        return scene([floor, proto], [FLOOR, glow()], [], ortho_down(width=WIDTH), instances=inst, width=N, height=N)
+
+    one = _render(placed([0.8]), 512)
+    two = _render(placed([0.8, -0.8]), 512)
+    nee = _render(placed([0.8, -0.8]), 512, 'nee')
+    X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
+    px = WIDTH / N
+    keep = ~((np.abs(Z) < 0.3 + px) & (np.abs(np.abs(X) - 0.8) < 0.3 + px))   # what the emitters hide from the camera
+    expected = one + one[:, ::-1]
+    for img in (two, nee):
+        assert img[keep].mean() == pytest.approx(expected[keep].mean(), rel=0.01)
+        assert np.sqrt(np.mean((img[keep] - expected[keep]) ** 2)) < 0.03 * expected.max()
+    mid = slice(N // 2 - 1, N // 2 + 1)                                  # the two columns either side of x = 0
+    assert two[:, mid].mean() == pytest.approx(2 * one[:, mid].mean(), rel=0.01)

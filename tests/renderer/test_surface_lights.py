@@ -1,0 +1,169 @@
+"""Emissive surfaces as lights of the path integrator (host/surface_lights.py): a mesh with UsdLux
+MeshLightAPI emits; one light per static placement of an emissive mesh (PointInstancer instances
+included), with its area, triangle CDF and the map from a hit to its light; spheres, moving placements
+and see-through materials are no lights."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from rtc.renderer import description as D
+from rtc.renderer.host.build import build
+from rtc.renderer.host.light_selection import path_lights
+from rtc.renderer.kernel.light_tree import light_pmf
+from rtc.renderer.kernel.tables import SLF_AREA, SLF_RAD, SLI_COUNT, SLI_FIRST
+from rtc.renderer.usd.stage import read_stage
+from tests.renderer.handmade import look_at, quad, scene, translate
+
+
+def _stage():
+    stage = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(stage, 'Y')
+    UsdGeom.Xform.Define(stage, '/World')
+    return stage
+
+
+def _quad_mesh(stage, path, size=(2.0, 1.0)):
+    mesh = UsdGeom.Mesh.Define(stage, path)
+    a, b = size[0] / 2, size[1] / 2
+    mesh.CreatePointsAttr([(-a, 0, -b), (a, 0, -b), (a, 0, b), (-a, 0, b)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    return mesh
+
+
+def test_mesh_light_api_makes_the_mesh_emit():
+    stage = _stage()
+    mesh = _quad_mesh(stage, '/World/Panel')
+    mesh.AddScaleOp().Set(Gf.Vec3f(2, 1, 1))          # world area 4 x 1
+    UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
+    api = UsdLux.LightAPI(mesh.GetPrim())
+    api.CreateIntensityAttr(4.0); api.CreateExposureAttr(1.0); api.CreateColorAttr((1.0, 0.5, 0.5))
+    api.CreateNormalizeAttr(True)
+    _quad_mesh(stage, '/World/Plain')
+    desc = read_stage(stage)
+    meshes = {m.path: m for c in desc.containers for m in c.meshes}
+    assert desc.materials[meshes['/World/Panel'].material].emission == pytest.approx((2.0, 1.0, 1.0))  # 8 / 4
+    assert desc.materials[meshes['/World/Plain'].material].emission == (0.0, 0.0, 0.0)
+    assert not desc.lights                              # lit by the mesh: no default lights
+
+
+def _emissive_material(stage, path, colour=(1.0, 2.0, 3.0)):
+    mat = UsdShade.Material.Define(stage, path)
+    shader = UsdShade.Shader.Define(stage, path + '/Surface')
+    shader.CreateIdAttr('UsdPreviewSurface')
+    shader.CreateInput('emissiveColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*colour))
+    mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), 'surface')
+    return mat
+
+
+def _path_lights(desc):
+    built = build(desc)
+    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups),
+                            data=built.data)
+    return built, L, shapes
+
+
+def test_every_point_instancer_instance_of_an_emissive_prototype_is_a_light():
+    stage = _stage()
+    pi = UsdGeom.PointInstancer.Define(stage, '/World/PI')
+    proto = _quad_mesh(stage, '/World/PI/Protos/Panel')
+    UsdShade.MaterialBindingAPI.Apply(proto.GetPrim()).Bind(_emissive_material(stage, '/World/Glow'))
+    pi.CreatePrototypesRel().SetTargets([proto.GetPath()])
+    pi.CreateProtoIndicesAttr([0, 0, 0])
+    pi.CreatePositionsAttr([(0, 0, 0), (3, 0, 0), (0, 2, 0)])
+    UsdLux.SphereLight.Define(stage, '/World/Bulb').CreateRadiusAttr(0.1)
+    desc = read_stage(stage)
+    built, L, shapes = _path_lights(desc)
+    try:
+        assert L.n_surface == 3 and L.surface_first == 1
+        np.testing.assert_allclose(L.sl_f[:, SLF_AREA], 2.0)
+        np.testing.assert_allclose(L.sl_f[:, SLF_RAD:SLF_RAD + 3], [(1.0, 2.0, 3.0)] * 3)
+        assert np.all(L.depth[1:4] >= 0)                                  # in the light tree
+        p, n = (0.0, 5.0, -20.0), (0.0, -1.0, 0.0)
+        assert sum(light_pmf(L, p, n, k) for k in range(4)) == pytest.approx(1.0)
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
+
+
+def _scene(meshes, materials, instances=None, lights=()):
+    cam = D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0)))
+    return scene([D.Container('/', meshes=meshes)], materials, list(lights), cam, instances=instances)
+
+
+def test_surface_light_tables():
+    glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(2.0, 2.0, 2.0))
+    panel = D.Mesh(path='/panel', points=np.array([[0, 1, 0], [3, 1, 0], [0, 1, 1], [3, 1, 1]], np.float64),
+                   triangles=np.array([[0, 1, 2], [1, 3, 2]], np.int32), material=1)
+    small = D.Mesh(path='/small', points=np.array([[0, 2, 0], [1, 2, 0], [0, 2, 1]], np.float64),
+                   triangles=np.array([[0, 1, 2]], np.int32), material=1)
+    desc = _scene([quad(10.0), panel, small], [D.Material('/floor'), glow])
+    built, L, shapes = _path_lights(desc)
+    try:
+        assert L.n_surface == 2 and L.surface_first == 0
+        areas = sorted(L.sl_f[:, SLF_AREA])
+        assert areas == pytest.approx([0.5, 3.0])
+        big = int(np.argmax(L.sl_f[:, SLF_AREA]))
+        first, count = L.sl_i[big, SLI_FIRST], L.sl_i[big, SLI_COUNT]
+        assert count == 2
+        np.testing.assert_allclose(L.sl_cdf[first:first + 2], [0.5, 1.0])
+        origin = desc.camera.matrix[:3, 3]                                 # tables are camera-relative
+        np.testing.assert_allclose(L.sl_tri[first:first + 2] + origin, panel.points[panel.triangles], atol=1e-6)
+        # the hit map: row 0 (the only placement), gprim slots 1 and 2 are the lights, the floor none
+        base = L.sl_row[0]
+        assert base >= 0 and L.sl_idx[base] == -1 and sorted(L.sl_idx[base + 1:base + 3]) == [0, 1]
+        assert L.sl_idx[base + 1] == big
+        # the tree: a receiver below sees both, the probabilities sum to 1
+        p = tuple(np.array([0.5, 0.0, 0.5]) - origin)
+        assert light_pmf(L, p, (0.0, 1.0, 0.0), 0) + light_pmf(L, p, (0.0, 1.0, 0.0), 1) == pytest.approx(1.0)
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
+
+
+def test_spheres_moving_placements_and_see_through_materials_are_no_lights():
+    glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
+    veil = D.Material('/veil', model=D.PREVIEW_SURFACE, emission=(1.0, 1.0, 1.0), opacity=0.5)
+    ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=1)
+    desc = scene([D.Container('/', meshes=[quad(4.0, material=2)], spheres=[ball]),
+                  D.Container('/moving', meshes=[quad(1.0, y=2.0, material=1)])],
+                 [D.Material('/floor'), glow, veil], [],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
+                 instances=D.Instances(container=np.array([0, 1], np.int32),
+                                       matrices=np.array([[np.eye(4), np.eye(4)], [np.eye(4), translate(1, 0, 0)]]),
+                                       material_set=np.zeros(2, np.int32), material_sets=[()]))
+    built, L, shapes = _path_lights(desc)
+    try:
+        assert L.n_surface == 0 and np.all(L.sl_row == -1)
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
+
+
+def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
+    from rtc.renderer.host.surface_lights import MAX_TRIANGLES
+    n = 160                                              # a 160 x 160 grid: 51200 triangles, placed twice
+    g = np.linspace(0.0, 1.0, n + 1)
+    X, Z = np.meshgrid(g, g)
+    pts = np.stack([X.ravel(), np.ones(X.size), Z.ravel()], 1)
+    i = (np.arange(n)[:, None] * (n + 1) + np.arange(n)[None, :]).ravel()
+    tris = np.concatenate([np.stack([i, i + 1, i + n + 2], 1), np.stack([i, i + n + 2, i + n + 1], 1)]).astype(np.int32)
+    glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
+    sheet = D.Container('/sheet', meshes=[D.Mesh(path='/sheet', points=pts, triangles=tris, material=0)])
+    inst = D.Instances(container=np.zeros(2, np.int32), matrices=np.array([np.eye(4), translate(2, 0, 0)])[:, None],
+                       material_set=np.zeros(2, np.int32), material_sets=[()])
+    desc = scene([sheet], [glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
+                 instances=inst)
+    assert 2 * len(tris) > MAX_TRIANGLES
+    with pytest.warns(RuntimeWarning, match='emissive triangles'):
+        built, L, shapes = _path_lights(desc)
+    try:
+        assert L.n_surface == 2 and L.sl_tri.shape[0] == 2 * len(tris)
+        assert any('emissive triangles' in w for w in desc.warnings)
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
