@@ -1,7 +1,7 @@
-"""Emissive surfaces as lights of the path integrator: every static placement of a mesh gprim whose
-resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI, which
-the stage reader turns into that material's emission) is one light of the light tree, sampled
-uniformly by area over its world-space triangles.
+"""Emissive surfaces as lights of the path integrator: every static placement of a mesh or sphere gprim
+whose resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI,
+which the stage reader turns into that material's emission) is one light of the light tree, sampled
+uniformly by area over its world-space triangles or its world-space sphere.
 
 Sidedness: an emissive surface emits the same radiance from both of its sides (as Storm, Cycles and
 today's emission at a hit do; the renderer shades every gprim on both sides).  Light samples use
@@ -9,8 +9,8 @@ today's emission at a hit do; the renderer shades every gprim on both sides).  L
 triangles' normal cone marked two-sided.
 
 Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first + j` of the tree):
-  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A
-  sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles
+  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A, a sphere's centre and radius
+  sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles (0: a sphere)
   sl_tri float64 (triangles, 3, 3): world (camera-relative) triangles, one copy per placement
   sl_cdf float64 (triangles,): cumulative area of a light's triangles over A, ending at exactly 1
   sl_row int64 (placement rows of `SceneData`): offset into sl_idx of the row's gprims, -1 if none emits
@@ -18,10 +18,10 @@ Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first
 The world triangles are copied per placement: meant for the few emissive meshes scenes have; more than
 MAX_TRIANGLES of them are warned about (memory, build time).
 
-Not lights (their emission is still added where a ray hits them, with weight 1, as before): emissive
-spheres, moving placements (a light sample would need the placement at the ray's time), emissive
-UsdPreviewSurfaces with opacity < 1 (a path crosses them with probability 1 - opacity), materials whose
-emission has no luminance.
+Not lights (their emission is still added where a ray hits them, with weight 1, as before): ellipsoids
+(spheres placed by a matrix that is no similarity: no area sampling of them), moving placements (a light
+sample would need the placement at the ray's time), emissive UsdPreviewSurfaces with opacity < 1 (a path
+crosses them with probability 1 - opacity), materials whose emission has no luminance.
 """
 from __future__ import annotations
 
@@ -30,7 +30,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import GP_MESH, MF_EMIT, MF_OPACITY, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I
+from ..kernel.tables import GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000
@@ -96,31 +96,67 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     xf = data.in_xf[:n_rows]
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
-    groups = []                                   # (rows, slot, world triangles (R, n, 3, 3), emission (R, 3))
+    groups, balls = [], []              # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero((data.in_proto[:n_rows] == c) & static)
         if not len(rows):
             continue
         own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
         for g in range(int(data.pr_gp_start[c]), int(ends[c])):
-            if data.gp_kind[g] != GP_MESH or counts[g] == 0 or (own and not glowing[data.gp_material[g]]):
-                continue
-            mat, ok = _emitting(data, rows, g - int(data.pr_gp_start[c]), g)
+            sphere = data.gp_kind[g] == GP_SPHERE
+            if (own and not glowing[data.gp_material[g]]) or (data.gp_off[g] < 0 if sphere else counts[g] == 0):
+                continue                                  # no emission, an ellipsoid, a mesh without triangles
+            slot = g - int(data.pr_gp_start[c])
+            mat, ok = _emitting(data, rows, slot, g)
+            m = xf[rows, 0]
+            if sphere:
+                ok &= _similarity(m) > 0.0
             if not ok.any():
                 continue
+            emit = data.mat_f[mat[ok], MF_EMIT:MF_EMIT + 3].astype(np.float64)
+            if sphere:
+                balls.append((rows[ok], slot, _placed_sphere(data.sph[data.gp_off[g]], m[ok]), emit))
+                continue
             tv = data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]].astype(np.float64)
-            m = xf[rows[ok], 0]
-            world = np.einsum('rij,nvj->rnvi', m[:, :, :3], tv) + m[:, None, None, :, 3]
-            groups.append((rows[ok], g - int(data.pr_gp_start[c]), world,
-                           data.mat_f[mat[ok], MF_EMIT:MF_EMIT + 3].astype(np.float64)))
+            world = np.einsum('rij,nvj->rnvi', m[ok][:, :, :3], tv) + m[ok][:, None, None, :, 3]
+            groups.append((rows[ok], slot, world, emit))
     n_tri = sum(w.shape[0] * w.shape[1] for _, _, w, _ in groups)
     if n_tri > MAX_TRIANGLES and warn is not None:
         warn(f'{n_tri} emissive triangles (placements of emissive meshes) are lights of the path integrator: '
              f'more than {MAX_TRIANGLES}, they cost memory and build time (one world-space copy each)')
-    return _tables(data, groups, first)
+    return _tables(data, groups, balls, first)
 
 
-def _tables(data, groups: list, first: int) -> SurfaceLights:
+def _similarity(m: np.ndarray) -> np.ndarray:
+    """The uniform scale s of each placement (R, 3, 4) whose linear part is s x a rotation, else 0."""
+    lin = m[:, :, :3]
+    g = np.einsum('rki,rkj->rij', lin, lin)
+    s2 = np.trace(g, axis1=1, axis2=2) / 3.0
+    ok = np.all(np.abs(g - s2[:, None, None] * np.eye(3)) <= 1e-9 * s2[:, None, None], axis=(1, 2)) & (s2 > 0)
+    return np.where(ok, np.sqrt(np.maximum(s2, 0.0)), 0.0)
+
+
+def _placed_sphere(cr: np.ndarray, m: np.ndarray):
+    """(world centres (R, 3), radii (R,)) of a sphere (container centre and radius) at placements m."""
+    return m[:, :, :3] @ cr[:3] + m[:, :, 3], cr[3] * _similarity(m)
+
+
+def _ball_rows(balls: list, first: int):
+    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive spheres, lights first, first + 1, ..."""
+    sl_f, sl_i, bounds, row_lights = [], [], [], []
+    for rows, slot, (centre, radius), emit in balls:
+        for r in range(len(rows)):
+            f = np.zeros(SURFACE_LIGHT_F.width)
+            SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r], RADIUS=radius[r])
+            sl_f.append(f)
+            sl_i.append(np.zeros(SURFACE_LIGHT_I.width, np.int64))
+            bounds.append((centre[r] - radius[r], centre[r] + radius[r], float(np.pi * radius[r] ** 2 * (emit[r] @ _LUM)),
+                           ENTIRE, 0.0, True))
+        row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
+    return sl_f, sl_i, bounds, row_lights
+
+
+def _tables(data, groups: list, balls: list, first: int) -> SurfaceLights:
     sl_f, sl_i, tris, cdfs, bounds = [], [], [], [], []
     row_lights = []                               # (rows, slot, light numbers)
     n_light = n_tri = 0
@@ -148,6 +184,11 @@ def _tables(data, groups: list, first: int) -> SurfaceLights:
         row_lights.append((rows, slot, first + n_light + np.arange(R)))
         n_light += R
         n_tri += R * n
+    f, i, b, rl = _ball_rows(balls, first + n_light)
+    sl_f += [np.array(f).reshape(-1, SURFACE_LIGHT_F.width)] if f else []
+    sl_i += [np.array(i, np.int64).reshape(-1, SURFACE_LIGHT_I.width)] if i else []
+    bounds += b
+    row_lights += rl
     return SurfaceLights(
         sl_f=np.concatenate(sl_f) if sl_f else np.zeros((1, SURFACE_LIGHT_F.width)),
         sl_i=np.concatenate(sl_i) if sl_i else np.zeros((1, SURFACE_LIGHT_I.width), np.int64),
@@ -174,4 +215,4 @@ def _hit_map(data, row_lights: list) -> dict:
 
 def surface_lights_none() -> SurfaceLights:
     """The tables of a scene without emissive-surface lights (placeholders the kernels never read)."""
-    return _tables(None, [], 0)
+    return _tables(None, [], [], 0)

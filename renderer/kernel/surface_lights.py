@@ -2,10 +2,11 @@
 sample on one, and the MIS weight of its emission where a BSDF-sampled ray hits it.
 
 A light sample picks a triangle of the light by area (its cumulative-area table) and a point uniformly
-on it: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total area.  Both sides emit (|cos_l|;
-the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
-the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: a sphere,
-a moving placement, a see-through material) keeps weight 1, as before surfaces were lights.
+on it, or a point uniformly on a sphere: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total
+area (a sphere's far side, drawn as often, is hidden by its near side: the shadow ray finds it).  Both
+sides emit (|cos_l|; the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
+the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: an
+ellipsoid, a moving placement, a see-through material) keeps weight 1, as before surfaces were lights.
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -16,7 +17,7 @@ import numba as nb
 
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
-from .tables import SLF_AREA, SLF_RAD, SLI_COUNT, SLI_FIRST
+from .tables import SLF_AREA, SLF_CENTER, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_FIRST
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID
 from .vecmath import cross, dot, normalize, offset_origin, sub
 
@@ -43,12 +44,8 @@ def _triangle(cdf, first, n, u):
 
 
 @nb.njit(**_JIT)
-def sample_surface(S, L, k, p, u1, u2):
-    """`light_sampling.sample_ld` of surface light k: (wi, dist, Le, pdf, delta = False) seen from p.
-    The point p + dist wi is the sampled point moved just off the surface towards p (`offset_origin`):
-    the light is real geometry, which the shadow ray (`shadow_ray`) must stop short of; pdf is that of
-    the point on the surface."""
-    j = k - L.surface_first
+def _triangle_point(L, j, u1, u2):
+    """(point, unit normal) uniformly by area on the triangles of surface light j."""
     first = L.sl_i[j, SLI_FIRST]
     i, u = _triangle(L.sl_cdf, first, L.sl_i[j, SLI_COUNT], u1)
     tri = L.sl_tri[first + i]
@@ -60,7 +57,32 @@ def sample_surface(S, L, k, p, u1, u2):
          b0 * tri[0, 2] + b1 * tri[1, 2] + b2 * tri[2, 2])
     e1 = (tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2])
     e2 = (tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2])
-    nrm = normalize(cross(e1, e2))
+    return q, normalize(cross(e1, e2))
+
+
+@nb.njit(**_JIT)
+def _sphere_point(L, j, u1, u2):
+    """(point, unit normal) uniformly by area on the sphere of surface light j."""
+    z = 1.0 - 2.0 * u1
+    rr = math.sqrt(max(0.0, 1.0 - z * z))
+    phi = 2.0 * math.pi * u2
+    n = (rr * math.cos(phi), rr * math.sin(phi), z)
+    r = L.sl_f[j, SLF_RADIUS]
+    return (L.sl_f[j, SLF_CENTER] + r * n[0], L.sl_f[j, SLF_CENTER + 1] + r * n[1],
+            L.sl_f[j, SLF_CENTER + 2] + r * n[2]), n
+
+
+@nb.njit(**_JIT)
+def sample_surface(S, L, k, p, u1, u2):
+    """`light_sampling.sample_ld` of surface light k: (wi, dist, Le, pdf, delta = False) seen from p.
+    The point p + dist wi is the sampled point moved just off the surface towards p (`offset_origin`):
+    the light is real geometry, which the shadow ray (`shadow_ray`) must stop short of; pdf is that of
+    the point on the surface."""
+    j = k - L.surface_first
+    if L.sl_i[j, SLI_COUNT] == 0:
+        q, nrm = _sphere_point(L, j, u1, u2)
+    else:
+        q, nrm = _triangle_point(L, j, u1, u2)
     v = sub(q, p)
     d2 = dot(v, v)
     if d2 <= 0.0:

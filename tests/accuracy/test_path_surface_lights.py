@@ -100,3 +100,22 @@ def test_each_placement_of_an_instanced_emissive_prototype_is_a_light():
         assert np.sqrt(np.mean((img[keep] - expected[keep]) ** 2)) < 0.03 * expected.max()
     mid = slice(N // 2 - 1, N // 2 + 1)                                  # the two columns either side of x = 0
     assert two[:, mid].mean() == pytest.approx(2 * one[:, mid].mean(), rel=0.01)
+
+
+def test_an_emissive_sphere_lights_the_floor_as_a_sphere_light():
+    """A black emissive sphere (a light by area sampling of its surface) against a SphereLight of the same
+    radius and radiance (sampled in the cone it subtends): the floor beside the sphere agrees."""
+    r, c, le = 0.3, (0.4, 0.9, -0.2), 3.0
+    ball = D.Sphere(path='/ball', radius=r, matrix=translate(*c), material=1)
+    lit = scene([D.Container('/', meshes=[quad(40.0)], spheres=[ball])], [FLOOR, glow(le)], [],
+                ortho_down(width=WIDTH), width=N, height=N)
+    bulb = scene([D.Container('/', meshes=[quad(40.0)])], [FLOOR],
+                 [D.Light(path='/bulb', type=D.SPHERE, matrix=translate(*c), radiance=(le,) * 3, radius=r)],
+                 ortho_down(width=WIDTH), width=N, height=N)
+    X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
+    keep = (X - c[0]) ** 2 + (Z - c[2]) ** 2 > (r + WIDTH / N) ** 2              # the camera sees the floor
+    ref = _render(bulb, 512)
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(lit, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy

@@ -1,7 +1,7 @@
 """Emissive surfaces as lights of the path integrator (host/surface_lights.py): a mesh with UsdLux
-MeshLightAPI emits; one light per static placement of an emissive mesh (PointInstancer instances
-included), with its area, triangle CDF and the map from a hit to its light; spheres, moving placements
-and see-through materials are no lights."""
+MeshLightAPI emits; one light per static placement of an emissive mesh or sphere (PointInstancer
+instances included), with its area, triangle CDF and the map from a hit to its light; ellipsoids, moving
+placements and see-through materials are no lights."""
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
@@ -10,7 +10,7 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.kernel.light_tree import light_pmf
-from rtc.renderer.kernel.tables import SLF_AREA, SLF_RAD, SLI_COUNT, SLI_FIRST
+from rtc.renderer.kernel.tables import SLF_AREA, SLF_CENTER, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_FIRST
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import look_at, quad, scene, translate
 
@@ -123,10 +123,33 @@ def test_surface_light_tables():
         built.close()
 
 
-def test_spheres_moving_placements_and_see_through_materials_are_no_lights():
+def test_emissive_spheres_are_lights_with_their_placement_scale_and_ellipsoids_are_not():
+    glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
+    ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=1)
+    egg = D.Sphere(path='/egg', radius=0.5, matrix=translate(0, 3, 0) @ np.diag([1.0, 2.0, 1.0, 1.0]), material=1)
+    m = np.eye(4)
+    m[:3, :3] *= 2.0
+    m[:3, 3] = (1.0, 0.0, 0.0)
+    desc = scene([D.Container('/', meshes=[quad(4.0)]), D.Container('/balls', spheres=[ball, egg])],
+                 [D.Material('/floor'), glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
+                 instances=D.Instances(container=np.array([0, 1], np.int32), matrices=np.array([np.eye(4), m])[:, None],
+                                       material_set=np.zeros(2, np.int32), material_sets=[()]))
+    built, L, shapes = _path_lights(desc)
+    try:
+        assert L.n_surface == 1 and L.sl_i[0, SLI_COUNT] == 0                 # the ball, not the egg
+        assert L.sl_f[0, SLF_RADIUS] == pytest.approx(1.0) and L.sl_f[0, SLF_AREA] == pytest.approx(4 * np.pi)
+        np.testing.assert_allclose(L.sl_f[0, SLF_CENTER:SLF_CENTER + 3] + desc.camera.matrix[:3, 3], (1.0, 2.0, 0.0),
+                                   atol=1e-9)
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
+
+
+def test_moving_placements_and_see_through_materials_are_no_lights():
     glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
     veil = D.Material('/veil', model=D.PREVIEW_SURFACE, emission=(1.0, 1.0, 1.0), opacity=0.5)
-    ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=1)
+    ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=2)
     desc = scene([D.Container('/', meshes=[quad(4.0, material=2)], spheres=[ball]),
                   D.Container('/moving', meshes=[quad(1.0, y=2.0, material=1)])],
                  [D.Material('/floor'), glow, veil], [],
