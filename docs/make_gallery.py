@@ -60,7 +60,10 @@ def main() -> None:
     if a.integrator == 'path':
         out_dir, extra = OUT / 'path', ('--integrator', 'path', '--encoding', 'srgb')
         out_dir.mkdir(exist_ok=True)
-    for scene in sorted((ROOT / 'scenes').glob('*.xml')):
+    scenes = sorted((ROOT / 'scenes').glob('*.xml'))
+    if a.integrator == 'path':                   # USD examples of what only the path tracer computes
+        scenes += sorted((ROOT / 'scenes').glob('*.usda'))
+    for scene in scenes:
         out = out_dir / f'{scene.stem}.png'
         print(f'{scene.name} -> {out.relative_to(ROOT)} ({render(scene, out, a.width, a.height, a.spp, *extra)} bytes)')
     if a.integrator == 'path':
