@@ -40,7 +40,8 @@ from rtc.renderer.host.render import RenderOptions
 from rtc.renderer.host.shots.run import run_shot
 from rtc.renderer.host.shots.worker import Job
 
-from benchmarks.gen_shot import write_shot
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository root
+from benchmarks.gen_shot import write_shot  # noqa: E402
 
 RTC = [sys.executable, '-m', 'rtc.cli']
 
