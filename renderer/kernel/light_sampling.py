@@ -34,7 +34,7 @@ from .lights import cylinder_point, dome_radiance
 from .surface_lights import sample_surface
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
-from .vecmath import cross, dot, normalize, onb, sub, to_world
+from .vecmath import cross, dot, normalize, onb, sub, to_world, toward
 INF = math.inf
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
@@ -92,16 +92,7 @@ def sample_ld(S, L, k, p, n, u1, u2):
             a = r * math.cos(phi)
             b = r * math.sin(phi)
         q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
-        v = sub(q, p)
-        d2 = dot(v, v)
-        if d2 <= 0.0:
-            return NONE
-        d = math.sqrt(d2)
-        wi = (v[0] / d, v[1] / d, v[2] / d)
-        cos_l = dot(nrm, wi)
-        if cos_l <= 0.0:
-            return NONE
-        return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
+        return area_ld(p, q, (-nrm[0], -nrm[1], -nrm[2]), lf[k, LF_AREA], Lr)
     if F_LIGHTS & B_CYLINDER and (F_LIGHTS == B_CYLINDER or t == D.CYLINDER):
         return _cylinder_ld(lf, k, p, u1, u2, Lr)
     if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
@@ -144,16 +135,20 @@ def sample_ld(S, L, k, p, n, u1, u2):
 def _cylinder_ld(lf, k, p, u1, u2, Lr):
     """`sample_ld` of cylinder light k: a point uniformly by area on its side."""
     q, nq = cylinder_point(lf, k, u1, u2)
-    v = sub(q, p)
-    d2 = dot(v, v)
+    return area_ld(p, q, nq, lf[k, LF_AREA], Lr)
+
+
+@nb.njit(**_JIT)
+def area_ld(p, q, nq, area, Lr):
+    """`sample_ld` of the point q, drawn uniformly by area on a light of that area whose emitting side
+    faces along nq, seen from p: NONE unless q's emitting side faces p (pdf d^2 / (cos_l A))."""
+    wi, d, d2 = toward(p, q)
     if d2 <= 0.0:
         return NONE
-    d = math.sqrt(d2)
-    wi = (v[0] / d, v[1] / d, v[2] / d)
     cos_l = -dot(nq, wi)
-    if cos_l <= 0.0:                     # the side facing away from p
+    if cos_l <= 0.0:
         return NONE
-    return wi, d, Lr, d2 / (cos_l * lf[k, LF_AREA]), False
+    return wi, d, Lr, d2 / (cos_l * area), False
 
 
 # ----------------------------------------------------------------------------- dome tables

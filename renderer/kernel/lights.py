@@ -92,6 +92,13 @@ def _sample_area(lf, k, t, p, u1, u2, L):
         a = r * math.cos(phi)
         b = r * math.sin(phi)
     q = (pos[0] + a * ex[0] + b * ey[0], pos[1] + a * ex[1] + b * ey[1], pos[2] + a * ex[2] + b * ey[2])
+    return _area_point(p, q, normalize(_col(lf, k, 2)), lf[k, LF_AREA], L)   # emits along local -Z
+
+
+@nb.njit(**INLINE_JIT)
+def _area_point(p, q, nl, area, L):
+    """(wi, dist, E_perp) of the point q drawn uniformly by area on a light of that area and radiance L
+    (nl: the opposite of its emitting side's normal at q), seen from p."""
     v = sub(q, p)
     d2 = dot(v, v)
     if d2 <= 0.0:
@@ -99,11 +106,10 @@ def _sample_area(lf, k, t, p, u1, u2, L):
     d = math.sqrt(d2)
     r = 1.0 / d
     wi = (v[0] * r, v[1] * r, v[2] * r)
-    nl = normalize(_col(lf, k, 2))            # light emits along local -Z
-    cos_l = dot(nl, wi)                        # = dot(-Z, -wi)
-    if cos_l <= 0.0:
+    cos_l = dot(nl, wi)                        # = dot(-n, -wi)
+    if cos_l <= 0.0:                           # the light's back, or the side facing away from p
         return wi, d, (0.0, 0.0, 0.0)
-    g = cos_l * lf[k, LF_AREA] * (r * r)
+    g = cos_l * area * (r * r)
     return wi, d, (L[0] * g, L[1] * g, L[2] * g)
 
 
@@ -128,18 +134,7 @@ def cylinder_point(lf, k, u1, u2):
 def _sample_cylinder(lf, k, p, u1, u2, L):
     """A point uniformly by area on the side of a cylinder light of radiance L, as seen from p."""
     q, nq = cylinder_point(lf, k, u1, u2)
-    v = sub(q, p)
-    d2 = dot(v, v)
-    if d2 <= 0.0:
-        return (0.0, 0.0, 1.0), 0.0, (0.0, 0.0, 0.0)
-    d = math.sqrt(d2)
-    r = 1.0 / d
-    wi = (v[0] * r, v[1] * r, v[2] * r)
-    cos_l = -dot(nq, wi)
-    if cos_l <= 0.0:                           # the side facing away from p
-        return wi, d, (0.0, 0.0, 0.0)
-    g = cos_l * lf[k, LF_AREA] * (r * r)
-    return wi, d, (L[0] * g, L[1] * g, L[2] * g)
+    return _area_point(p, q, (-nq[0], -nq[1], -nq[2]), lf[k, LF_AREA], L)
 
 
 @nb.njit(**INLINE_JIT)

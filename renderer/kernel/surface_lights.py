@@ -19,7 +19,7 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .tables import SLF_AREA, SLF_CENTER, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_FIRST
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID
-from .vecmath import cross, dot, normalize, offset_origin, sub
+from .vecmath import cross, dot, normalize, offset_origin, sub, toward
 
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
@@ -83,12 +83,9 @@ def sample_surface(S, L, k, p, u1, u2):
         q, nrm = _sphere_point(L, j, u1, u2)
     else:
         q, nrm = _triangle_point(L, j, u1, u2)
-    v = sub(q, p)
-    d2 = dot(v, v)
+    wi, d, d2 = toward(p, q)
     if d2 <= 0.0:
         return NONE
-    d = math.sqrt(d2)
-    wi = (v[0] / d, v[1] / d, v[2] / d)
     c = dot(nrm, wi)
     if c == 0.0:
         return NONE

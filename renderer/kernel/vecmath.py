@@ -216,3 +216,15 @@ def lerp_xf(xf, row, time, out):
     for i in range(3):
         for j in range(4):
             out[i, j] = (1.0 - a) * xf[row, k0, i, j] + a * xf[row, k0 + 1, i, j]
+
+
+@nb.njit(**INLINE_JIT)
+def toward(p, q):
+    """(unit direction, distance, squared distance) from p to q; all zero (direction +Z) when they
+    coincide."""
+    v = sub(q, p)
+    d2 = dot(v, v)
+    if d2 <= 0.0:
+        return (0.0, 0.0, 1.0), 0.0, 0.0
+    d = math.sqrt(d2)
+    return (v[0] / d, v[1] / d, v[2] / d), d, d2

@@ -2,6 +2,8 @@
 MeshLightAPI emits; one light per static placement of an emissive mesh or sphere (PointInstancer
 instances included), with its area, triangle CDF and the map from a hit to its light; ellipsoids, moving
 placements and see-through materials are no lights."""
+from contextlib import contextmanager
+
 import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
@@ -56,11 +58,19 @@ def _emissive_material(stage, path, colour=(1.0, 2.0, 3.0)):
     return mat
 
 
+@contextmanager
 def _path_lights(desc):
+    """(built scene, PathLights) of desc, closed (with the light-shape scene) on leaving."""
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups),
-                            data=built.data)
-    return built, L, shapes
+    shapes = None
+    try:
+        L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups),
+                                data=built.data)
+        yield built, L
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
 
 
 def test_every_point_instancer_instance_of_an_emissive_prototype_is_a_light():
@@ -73,18 +83,13 @@ def test_every_point_instancer_instance_of_an_emissive_prototype_is_a_light():
     pi.CreatePositionsAttr([(0, 0, 0), (3, 0, 0), (0, 2, 0)])
     UsdLux.SphereLight.Define(stage, '/World/Bulb').CreateRadiusAttr(0.1)
     desc = read_stage(stage)
-    built, L, shapes = _path_lights(desc)
-    try:
+    with _path_lights(desc) as (built, L):
         assert L.n_surface == 3 and L.surface_first == 1
         np.testing.assert_allclose(L.sl_f[:, SLF_AREA], 2.0)
         np.testing.assert_allclose(L.sl_f[:, SLF_RAD:SLF_RAD + 3], [(1.0, 2.0, 3.0)] * 3)
         assert np.all(L.depth[1:4] >= 0)                                  # in the light tree
         p, n = (0.0, 5.0, -20.0), (0.0, -1.0, 0.0)
         assert sum(light_pmf(L, p, n, k) for k in range(4)) == pytest.approx(1.0)
-    finally:
-        if shapes is not None:
-            shapes.close()
-        built.close()
 
 
 def _scene(meshes, materials, instances=None, lights=()):
@@ -99,8 +104,7 @@ def test_surface_light_tables():
     small = D.Mesh(path='/small', points=np.array([[0, 2, 0], [1, 2, 0], [0, 2, 1]], np.float64),
                    triangles=np.array([[0, 1, 2]], np.int32), material=1)
     desc = _scene([quad(10.0), panel, small], [D.Material('/floor'), glow])
-    built, L, shapes = _path_lights(desc)
-    try:
+    with _path_lights(desc) as (built, L):
         assert L.n_surface == 2 and L.surface_first == 0
         areas = sorted(L.sl_f[:, SLF_AREA])
         assert areas == pytest.approx([0.5, 3.0])
@@ -117,10 +121,6 @@ def test_surface_light_tables():
         # the tree: a receiver below sees both, the probabilities sum to 1
         p = tuple(np.array([0.5, 0.0, 0.5]) - origin)
         assert light_pmf(L, p, (0.0, 1.0, 0.0), 0) + light_pmf(L, p, (0.0, 1.0, 0.0), 1) == pytest.approx(1.0)
-    finally:
-        if shapes is not None:
-            shapes.close()
-        built.close()
 
 
 def test_emissive_spheres_are_lights_with_their_placement_scale_and_ellipsoids_are_not():
@@ -134,16 +134,11 @@ def test_emissive_spheres_are_lights_with_their_placement_scale_and_ellipsoids_a
                  [D.Material('/floor'), glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=D.Instances(container=np.array([0, 1], np.int32), matrices=np.array([np.eye(4), m])[:, None],
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
-    built, L, shapes = _path_lights(desc)
-    try:
+    with _path_lights(desc) as (built, L):
         assert L.n_surface == 1 and L.sl_i[0, SLI_COUNT] == 0                 # the ball, not the egg
         assert L.sl_f[0, SLF_RADIUS] == pytest.approx(1.0) and L.sl_f[0, SLF_AREA] == pytest.approx(4 * np.pi)
         np.testing.assert_allclose(L.sl_f[0, SLF_CENTER:SLF_CENTER + 3] + desc.camera.matrix[:3, 3], (1.0, 2.0, 0.0),
                                    atol=1e-9)
-    finally:
-        if shapes is not None:
-            shapes.close()
-        built.close()
 
 
 def test_moving_placements_and_see_through_materials_are_no_lights():
@@ -157,13 +152,8 @@ def test_moving_placements_and_see_through_materials_are_no_lights():
                  instances=D.Instances(container=np.array([0, 1], np.int32),
                                        matrices=np.array([[np.eye(4), np.eye(4)], [np.eye(4), translate(1, 0, 0)]]),
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
-    built, L, shapes = _path_lights(desc)
-    try:
+    with _path_lights(desc) as (built, L):
         assert L.n_surface == 0 and np.all(L.sl_row == -1)
-    finally:
-        if shapes is not None:
-            shapes.close()
-        built.close()
 
 
 def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
@@ -181,15 +171,9 @@ def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
     desc = scene([sheet], [glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=inst)
     assert 2 * len(tris) > MAX_TRIANGLES
-    with pytest.warns(RuntimeWarning, match='emissive triangles'):
-        built, L, shapes = _path_lights(desc)
-    try:
+    with pytest.warns(RuntimeWarning, match='emissive triangles'), _path_lights(desc) as (built, L):
         assert L.n_surface == 2 and L.sl_tri.shape[0] == 2 * len(tris)
         assert any('emissive triangles' in w for w in desc.warnings)
-    finally:
-        if shapes is not None:
-            shapes.close()
-        built.close()
 
 
 def test_the_lights_example_scene_samples_every_kind_of_light():
@@ -200,14 +184,9 @@ def test_the_lights_example_scene_samples_every_kind_of_light():
     from rtc.renderer.host.render import RenderOptions, Renderer
     desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'lights.usda'))
     assert sorted(l.type for l in desc.lights) == sorted([D.RECT, D.CYLINDER])
-    built, L, shapes = _path_lights(desc)
-    try:
+    with _path_lights(desc) as (built, L):
         assert L.n_surface == 2 and L.surface_first == 2
         assert (L.depth[:4] >= 0).all()                  # all four in the tree
-    finally:
-        built.close()
-        if shapes is not None:
-            shapes.close()
     with Renderer(desc) as r:
         img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2)).image
     assert np.isfinite(img).all() and img.mean() > 0.01
