@@ -6,7 +6,9 @@ distance for the shadow ray, the radiance arriving along it and the pdf of wi pe
 Delta lights (point; distant of zero angle) return delta = True, pdf 1 and Le = the irradiance they
 deliver normal to wi (I / d^2, or E): next-event estimation alone sees them.
 
-Lights with extent: rect, disk and the side of a cylinder (uniform by area: pdf = d^2 / (cos_l A)),
+Lights with extent: rect (uniform in the solid angle it subtends, the spherical rectangle of Urena et
+al. 2013, pdf = 1 / S; by area when S is tiny or nearly 2 pi), disk and the side of a cylinder
+(uniform by area: pdf = d^2 / (cos_l A)),
 sphere (uniform in the cone it subtends, exact), distant with an angle (uniform in its cone: radiance
 E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
 `host/dome_sampling.py`; cosine-weighted about n when untextured), emissive surfaces (uniform by area
@@ -36,6 +38,17 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward
 INF = math.inf
+# A rect light whose solid angle seen from the shading point lies in [SPHERICAL_MIN, SPHERICAL_MAX] sr is
+# sampled uniformly in that solid angle (`spherical_rect`); outside it uniformly by area: a far light's
+# solid angle loses precision where both strategies are equally good, and one nearly filling the
+# hemisphere has its pdf near zero at grazing points (the bounds of pbrt-v4's rectangle sampling).
+SPHERICAL_MIN = 3e-4
+SPHERICAL_MAX = 6.22
+# ... and only from points nearer its centre than NEAR_FIELD x its diagonal: farther away the pdf by area
+# varies little over the light (relative variance of the unoccluded irradiance estimate <= 0.07 at one
+# diagonal, measured), and the spherical rectangle's two atan2, sine, cosine and eight square roots
+# (~150 ns a sample, measured) cost more than they save.
+NEAR_FIELD = 1.0
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
 
@@ -84,6 +97,9 @@ def sample_ld(S, L, k, p, n, u1, u2):
     if F_LIGHTS & B_PLANAR and (t == D.RECT or t == D.DISK):
         c, ex, ey, nrm = _plane(lf, k)
         if t == D.RECT:
+            sr = near_rect(p, c, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H])
+            if sr[0] > 0.0:
+                return _spherical_rect_ld(p, sr, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H], u1, u2, Lr)
             a = (u1 - 0.5) * lf[k, LF_W]
             b = (u2 - 0.5) * lf[k, LF_H]
         else:
@@ -136,6 +152,108 @@ def _cylinder_ld(lf, k, p, u1, u2, Lr):
     """`sample_ld` of cylinder light k: a point uniformly by area on its side."""
     q, nq = cylinder_point(lf, k, u1, u2)
     return area_ld(p, q, nq, lf[k, LF_AREA], Lr)
+
+
+@nb.njit(**_JIT)
+def near_rect(p, c, ex, ey, nrm, w, h):
+    """`spherical_rect` of a rect light seen from p when `sample_ld` samples it in solid angle: p
+    nearer its centre than its diagonal (NEAR_FIELD) and the solid angle within [SPHERICAL_MIN,
+    SPHERICAL_MAX]; else S = 0 (sampled by area)."""
+    v = sub(c, p)
+    if dot(v, v) >= NEAR_FIELD * NEAR_FIELD * (w * w + h * h):
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    sr = spherical_rect(p, c, ex, ey, nrm, w, h)
+    if SPHERICAL_MIN <= sr[0] <= SPHERICAL_MAX:
+        return sr
+    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+
+
+@nb.njit(**_JIT)
+def spherical_rect(p, c, ex, ey, nrm, w, h):
+    """The spherical rectangle that the rect light centred at c (unit axes ex, ey, nrm = ex x ey, sides w
+    and h, emitting towards -nrm) subtends from p, in the local frame of Urena, Fajardo and King, "An
+    Area-Preserving Parametrization for Spherical Rectangles" (EGSR 2013): (S, x0, y0, z0, b0, b1, k0)
+    with S its solid angle, (x0, y0, z0) the corner c - w/2 ex - h/2 ey seen from p along (ex, ey, -nrm)
+    (z0 < 0), b0, b1 the z components of two edge-plane normals and k0 = 2 pi - g2 - g3.  S = 0 when
+    p is not on the emitting side."""
+    s = (c[0] - 0.5 * (w * ex[0] + h * ey[0]), c[1] - 0.5 * (w * ex[1] + h * ey[1]),
+         c[2] - 0.5 * (w * ex[2] + h * ey[2]))
+    dv = sub(s, p)
+    z0 = dot(dv, nrm)
+    if not z0 > 0.0:
+        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    z0 = -z0                                  # the frame's z axis is -nrm: p sees the corner below it
+    x0 = dot(dv, ex)
+    y0 = dot(dv, ey)
+    x1 = x0 + w
+    y1 = y0 + h
+    zz = z0 * z0
+    # z components of the unit normals of the planes through p and each edge (the others cancel
+    # in the dot products between neighbours); the rectangle's interior angles g0..g3 have cosines
+    # -n0z n1z, ...; only the sums g0 + g1 and g2 + g3 are needed: one atan2 each
+    n0z = -y0 / math.sqrt(zz + y0 * y0)
+    n1z = x1 / math.sqrt(zz + x1 * x1)
+    n2z = y1 / math.sqrt(zz + y1 * y1)
+    n3z = -x0 / math.sqrt(zz + x0 * x0)
+    g01 = _angle_sum(-n0z * n1z, -n1z * n2z)
+    g23 = _angle_sum(-n2z * n3z, -n3z * n0z)
+    k0 = 2.0 * math.pi - g23
+    return g01 - k0, x0, y0, z0, n0z, n2z, k0
+
+
+@nb.njit(**_JIT)
+def _angle_sum(ca, cb):
+    """acos(ca) + acos(cb), in [0, 2 pi), by one atan2 of the sum's sine and cosine."""
+    ca = min(1.0, max(-1.0, ca))
+    cb = min(1.0, max(-1.0, cb))
+    sa = math.sqrt(1.0 - ca * ca)
+    sb = math.sqrt(1.0 - cb * cb)
+    g = math.atan2(sa * cb + ca * sb, ca * cb - sa * sb)     # the sum modulo 2 pi, in (-pi, pi]
+    if ca + cb < 0.0:                                         # the sum exceeds pi
+        return g + 2.0 * math.pi if g < 0.5 * math.pi else g
+    if g < -0.5 * math.pi:                                    # pi, with the sine's sign lost
+        return g + 2.0 * math.pi
+    return max(g, 0.0)
+
+
+@nb.njit(**_JIT)
+def spherical_rect_point(sr, w, h, u1, u2):
+    """The point (x, y) of the rectangle (in the frame of `spherical_rect`: x in [x0, x0 + w], y in
+    [y0, y0 + h], at height z0) whose direction from p is the sample (u1, u2) drawn uniformly in the
+    solid angle S (Urena et al. 2013, section 4)."""
+    S, x0, y0, z0, b0, b1, k0 = sr
+    au = u1 * S + k0
+    sa = math.sin(au)
+    xu = 0.0
+    if abs(sa) > 1e-300:
+        fu = (math.cos(au) * b0 - b1) / sa
+        cu = min(1.0 - 1e-15, 1.0 / math.sqrt(fu * fu + b0 * b0))
+        if fu < 0.0:
+            cu = -cu
+        xu = -(cu * z0) / math.sqrt(1.0 - cu * cu)
+    xu = min(max(xu, x0), x0 + w)
+    dd2 = xu * xu + z0 * z0
+    dd = math.sqrt(dd2)
+    y1 = y0 + h
+    h0 = y0 / math.sqrt(dd2 + y0 * y0)
+    h1 = y1 / math.sqrt(dd2 + y1 * y1)
+    hv = h0 + u2 * (h1 - h0)
+    hv2 = hv * hv
+    yv = hv * dd / math.sqrt(1.0 - hv2) if hv2 < 1.0 - 1e-15 else y1
+    return xu, min(max(yv, y0), y1)
+
+
+@nb.njit(**_JIT)
+def _spherical_rect_ld(p, sr, ex, ey, nrm, w, h, u1, u2, Lr):
+    """`sample_ld` of a w x h rect light seen from p by its spherical rectangle sr: pdf 1 / S."""
+    x, y = spherical_rect_point(sr, w, h, u1, u2)
+    z = sr[3]
+    v = (x * ex[0] + y * ey[0] - z * nrm[0], x * ex[1] + y * ey[1] - z * nrm[1], x * ex[2] + y * ey[2] - z * nrm[2])
+    d2 = dot(v, v)
+    if not d2 > 0.0:
+        return NONE
+    d = math.sqrt(d2)
+    return (v[0] / d, v[1] / d, v[2] / d), d, Lr, 1.0 / sr[0], False
 
 
 @nb.njit(**_JIT)
@@ -279,6 +397,10 @@ def hit_shape(S, k, o, d, tmax, p0):
             return -1.0, 0.0
     elif a * a + b * b > lf[k, LF_RADIUS] * lf[k, LF_RADIUS]:
         return -1.0, 0.0
+    if t == D.RECT:
+        S = near_rect(p0, c, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H])[0]
+        if S > 0.0:
+            return th, 1.0 / S
     v = sub(q, p0)
     d2 = dot(v, v)
     return th, d2 / (den * lf[k, LF_AREA])

@@ -26,6 +26,16 @@ def _disk(center, radius, radiance):
     return D.Light(path='/disk', type=D.DISK, matrix=m, radiance=radiance, radius=radius)
 
 
+def _rects():
+    """A rect light close above the floor (sampled in its solid angle) and a tiny far one (by area:
+    its solid angle is below `light_sampling.SPHERICAL_MIN`)."""
+    near = _disk((1.2, 1.3, 0.4), 0.0, (6.0,) * 3)
+    near.type, near.path, near.width, near.height = D.RECT, '/rect', 1.6, 1.0
+    far = _disk((-1.0, 3.5, -0.5), 0.0, (4000.0,) * 3)
+    far.type, far.path, far.width, far.height = D.RECT, '/tiny', 0.04, 0.04
+    return [near, far]
+
+
 def _sky():
     h, w = 16, 32
     px = np.full((h, w, 3), 0.2, np.float32)
@@ -37,6 +47,7 @@ LIGHTS = {
     'sphere': ([D.Light(path='/s', type=D.SPHERE, matrix=translate(1.0, 2.0, 1.0), radiance=(20.0,) * 3,
                         radius=0.25)], ()),
     'disk': ([_disk((-1.0, 2.5, 0.5), 0.4, (15.0,) * 3)], ()),
+    'rect': (_rects(), ()),
     'cylinder': ([D.Light(path='/c', type=D.CYLINDER, matrix=translate(0.3, 1.6, -0.8), radiance=(8.0,) * 3,
                           radius=0.25, length=1.2)], ()),
     'distant': ([D.Light(path='/d', type=D.DISTANT, matrix=np.linalg.inv(look_at((0, 0, 0), (-1, -2, -1)))
