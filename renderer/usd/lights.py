@@ -6,7 +6,7 @@
 * area lights (SphereLight with a radius, RectLight, DiskLight, CylinderLight): `radiance` = L,
   divided by the world-space surface area when ``normalize`` is on (a CylinderLight's: its side,
   2 pi r length; it emits outwards from its side only, not from its caps; ``treatAsLine``, a hint
-  for renderers that cannot draw cylinders, is not needed and ignored);
+  that renderers which only support area lights may disregard, is disregarded);
 * point (SphereLight with ``treatAsPoint`` or radius 0): `radiance` = radiant intensity I.  With
   ``normalize`` (or a zero radius, whose un-normalised power would be 0) I = L / 4, the limit of
   a normalised sphere (power independent of radius); a non-normalised ``treatAsPoint`` sphere of
@@ -171,12 +171,17 @@ def _base(api: UsdLux.LightAPI, time: Usd.TimeCode) -> np.ndarray:
     return base
 
 
+SYNC_MODES = ('materialGlowTintsLight', 'independent', 'noMaterialResponse')
+
+
 def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optional[tuple]:
-    """The emitted radiance of a Mesh with UsdLux MeshLightAPI (or of a GeomSubset of one), None for
-    any other prim: L as for the other lights, divided by the mesh's world-space area (at this prim's
-    placement) when ``normalize`` is on.  The renderer gives it to the mesh as its material's emission
-    (replacing the material's emissiveColor; `MaterialTable.emitting`): emissive surfaces are lights of
-    the path integrator (`host/surface_lights.py`)."""
+    """(radiance, materialSyncMode) of a Mesh with UsdLux MeshLightAPI (or of a GeomSubset of one),
+    None for any other prim: L as for the other lights, divided by the mesh's world-space area (at this
+    prim's placement) when ``normalize`` is on, and how the bound material combines with it
+    (`light:materialSyncMode`, MeshLightAPI's fallback ``materialGlowTintsLight``; an unknown token is
+    warned and read as the fallback).  The renderer gives the mesh a material emitting it
+    (`MaterialTable.emitting`): emissive surfaces are lights of the path integrator
+    (`host/surface_lights.py`)."""
     if prim.IsA(UsdGeom.Subset):
         prim = prim.GetParent()
     if not prim or not prim.HasAPI(UsdLux.MeshLightAPI):
@@ -192,7 +197,12 @@ def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optio
     if not np.all(np.isfinite(base)):
         warn(f'{prim.GetPath()}: non-finite MeshLightAPI parameters; no emission')
         return None
-    return _rgb(base)
+    mode = str(api.GetMaterialSyncModeAttr().Get(time) or SYNC_MODES[0])
+    if mode not in SYNC_MODES:
+        warn(f'{prim.GetPath()}: light:materialSyncMode "{mode}" is none of {", ".join(SYNC_MODES)}; '
+             f'read as {SYNC_MODES[0]}')
+        mode = SYNC_MODES[0]
+    return _rgb(base), mode
 
 
 def _mesh_area(prim: Usd.Prim, time: Usd.TimeCode) -> float:

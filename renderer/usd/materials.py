@@ -26,7 +26,7 @@ import numpy as np
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
-from ..description import MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
 from .geometry import flattened
 
 Warn = Callable[[str], None]
@@ -75,14 +75,26 @@ class MaterialTable:
             self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0))
         return self._index[key]
 
-    def emitting(self, index: int, radiance: tuple) -> int:
-        """Index of material `index` emitting `radiance` instead of its own emission (a mesh with
-        UsdLux MeshLightAPI: `lights.mesh_light_radiance`)."""
-        key = ('emitting', index, radiance)
+    def emitting(self, index: int, radiance: tuple, mode: str = 'independent') -> int:
+        """Index of the material of a mesh with UsdLux MeshLightAPI whose bound material is `index`,
+        emitting the light's `radiance` (`lights.mesh_light_radiance`) as `light:materialSyncMode` says:
+        ``materialGlowTintsLight``: the radiance times the material's emissiveColor (its glow tints the
+        light; a material that does not glow leaves it untinted), ``independent``: the radiance alone;
+        both keep the material's reflection.  ``noMaterialResponse``: the radiance alone on a surface
+        that reflects and transmits nothing (as if no material were bound).  Every ray sees the same
+        emission (the one UsdLux gives light rays), so light and BSDF sampling estimate one light."""
+        key = ('emitting', index, radiance, mode)
         if key not in self._index:
             base = self.materials[index]
-            self._index[key] = self._add(dataclasses.replace(base, path=f'{base.path} <MeshLightAPI>',
-                                                             emission=radiance))
+            label = f'{base.path} <MeshLightAPI {mode}>'
+            if mode == 'noMaterialResponse':
+                # a black Lambertian: UsdPreviewSurface always reflects at grazing angles (white F90)
+                emitter = Material(path=label, model=LAMBERTIAN, diffuse=(0.0, 0.0, 0.0), emission=radiance)
+                self._index[key] = self._add(emitter)
+                return self._index[key]
+            if mode == 'materialGlowTintsLight' and base.model == PREVIEW_SURFACE and any(base.emission):
+                radiance = tuple(float(r * g) for r, g in zip(radiance, base.emission))
+            self._index[key] = self._add(dataclasses.replace(base, path=label, emission=radiance))
         return self._index[key]
 
     def _add(self, material: Material) -> int:

@@ -330,7 +330,7 @@ class _Reader:
                 index[key] = found if found is not None else self.materials.fallback(prim)
                 glow = mesh_light_radiance(prim, self.tc, self.warn)
                 if glow is not None:                 # UsdLux MeshLightAPI: the mesh emits
-                    index[key] = self.materials.emitting(index[key], glow)
+                    index[key] = self.materials.emitting(index[key], *glow)
                     self.mesh_lights += 1
         for (n, variant, subset, _, _, _) in rows:
             for s in subset:

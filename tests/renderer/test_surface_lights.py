@@ -190,3 +190,39 @@ def test_the_lights_example_scene_samples_every_kind_of_light():
     with Renderer(desc) as r:
         img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2)).image
     assert np.isfinite(img).all() and img.mean() > 0.01
+
+
+@pytest.mark.parametrize('mode, emission, reflects', [
+    (None, (8.0, 4.0, 2.0), True),                       # MeshLightAPI's fallback: materialGlowTintsLight
+    ('materialGlowTintsLight', (8.0, 4.0, 2.0), True),
+    ('independent', (8.0, 8.0, 8.0), True),
+    ('noMaterialResponse', (8.0, 8.0, 8.0), False),
+    ('somethingElse', (8.0, 4.0, 2.0), True),            # warned, read as the fallback
+])
+def test_material_sync_mode(mode, emission, reflects):
+    """light:materialSyncMode: the material's glow tints the light (fallback), the light alone
+    (independent), or the light alone on a surface with no material response."""
+    stage = _stage()
+    mesh = _quad_mesh(stage, '/World/Panel')
+    UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
+    api = UsdLux.LightAPI(mesh.GetPrim())
+    api.CreateIntensityAttr(8.0)
+    if mode is not None:
+        api.CreateMaterialSyncModeAttr(mode)
+    mat = _emissive_material(stage, '/Looks/Glow', colour=(1.0, 0.5, 0.25))
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)
+    desc = read_stage(stage)
+    m = desc.materials[desc.containers[0].meshes[0].material]
+    assert m.emission == pytest.approx(emission)
+    assert (max(m.diffuse) > 0.0 or m.model == D.PREVIEW_SURFACE) == reflects
+    assert any('materialSyncMode' in w for w in desc.warnings) == (mode == 'somethingElse')
+
+
+def test_glow_tints_only_a_material_that_glows():
+    """A bound material without emissiveColor (or no material) leaves the light's colour as it is."""
+    stage = _stage()
+    mesh = _quad_mesh(stage, '/World/Panel')
+    UsdLux.MeshLightAPI.Apply(mesh.GetPrim())
+    UsdLux.LightAPI(mesh.GetPrim()).CreateColorAttr((0.5, 1.0, 1.0))
+    desc = read_stage(stage)
+    assert desc.materials[desc.containers[0].meshes[0].material].emission == pytest.approx((0.5, 1.0, 1.0))
