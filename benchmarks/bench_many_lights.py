@@ -8,7 +8,9 @@ of the lights are inside instances), plus free point and 0.3 x 0.3 rect lights u
 half each.  Scenes: *one light* (the dominant light, the lamps' boxes without their lights: the same
 geometry, the baseline the issue asks for); *one light, no lamps* (the floor alone: the earlier
 baseline); the minor lights *dominant* (their intensities times `--minor`, 0.02: they add ~1 % to the
-image, the issue's "noise of the dominant light"); and *bright* (intensities times 1: the 900 lights near
+image, the issue's "noise of the dominant light"), measured both as the whole image's noise and as the noise of
+the dominant light's own share (*dominant: its own light*: the same light tree and choices, the minor
+lights' radiance zeroed in the kernel's light table after the tree was built); and *bright* (intensities times 1: the 900 lights near
 the floor outshine the main light, a different, harder image).  Whole renders alternate (median of
 `--repeats`), path integrator, D = 3, 320 x 240.  Reported: time per sample per pixel of each and its
 ratio to the one-light scene (issue target <= 2), the relative RMSE of each at `--spp` against its own
@@ -102,6 +104,7 @@ def main(argv=None) -> int:
     ap.add_argument('--ref-spp', type=int, default=256, help='samples of each scene\'s own reference')
     a = ap.parse_args(argv)
     from rtc.renderer.host.render import RenderOptions, Renderer
+    from rtc.renderer.kernel.tables import LF_RAD
     from rtc.renderer.usd.stage import read_stage
     scenes = {'one light': (1, 1.0, True), 'one light, no lamps': (1, 1.0, False),
               f'{a.lights} lights, dominant': (a.lights, a.minor, True), f'{a.lights} lights, bright': (a.lights, 1.0, True)}
@@ -115,15 +118,26 @@ def main(argv=None) -> int:
         r = Renderer(desc)
         r.render(RenderOptions(spp=1, integrator='path', max_depth=3))
         rs[name] = r
-    times = {n: [] for n in rs}
+    # the dominant light's own share of the dominant scene: the same renderer (the same light tree, so the
+    # same choices and probabilities), with the minor lights' radiance set to zero in the kernel's light
+    # table after the tree was built from it: its image is the estimate of the dominant light's light alone
+    own = f'{a.lights} lights, dominant: its own light'
+    r = Renderer(read_stage(stage(a.lights, a.minor, True), camera_path='/World/Camera'))
+    r.render(RenderOptions(spp=1, integrator='path', max_depth=3))
+    li_f = r.built.data.li_f
+    top = li_f[:, LF_RAD:LF_RAD + 3].max(axis=1)
+    li_f[top < top.max(), LF_RAD:LF_RAD + 3] = 0.0
+    rs[own] = r
+    times = {n: [] for n in rs if n != own}
     for k in range(a.repeats):
-        for n, r in rs.items():
+        for n in times:
+            r = rs[n]
             t0 = time.perf_counter()
             r.render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path', max_depth=3))
             times[n].append(time.perf_counter() - t0)
     med = {n: statistics.median(t) / a.spp for n, t in times.items()}
     one = 'one light'
-    for n in rs:
+    for n in med:
         print(f'  {n:>24}: {med[n] * 1e3:6.1f} ms per sample per pixel (median of {a.repeats}), '
               f'{med[n] / med[one]:.2f}x the one-light scene (target <= 2)')
     # noise: each scene against a reference of itself (another seed), relative RMSE at a.spp over seeds

@@ -101,7 +101,7 @@ _Lib._object_getbuffer_hook = classmethod(_keep_loaded)
 from numba.core.lowering import Lower  # noqa: E402
 
 FILE_STRIDE = 100000
-SOURCES = sorted(str(p) for p in (ROOT / 'renderer').glob('*.py'))
+SOURCES = sorted(str(p) for p in (ROOT / 'renderer').rglob('*.py'))
 _lower_inst = Lower.lower_inst
 
 
