@@ -1,7 +1,8 @@
-"""Choosing the light of a light sample from the light tree (`host/light_tree.py`; Conty Estevez &
-Kulla 2018, pbrt-v4's BVHLightSampler): a walk from the root that takes each child with probability
-proportional to its importance at the shading point, and the probability of a given light there (for
-the MIS weight of a BSDF-sampled ray that finds it).  `L` is the `PathLights` record.
+"""Choosing the lights of a path vertex's light samples from the light tree (`host/light_tree.py`; Conty
+Estevez & Kulla 2018, pbrt-v4's BVHLightSampler): a walk from the root that takes each child with
+probability proportional to its importance at the shading point, splitting where one child is much
+the likelier (`choose_lights`), and the expected number of samples of a given light there (for the MIS
+weight of a BSDF-sampled ray that finds it).  `L` is the `PathLights` record.
 """
 import math
 
@@ -11,6 +12,11 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import T_C, T_COS_E, T_COS_O, T_HALF_DIAG, T_PHI, T_RADIUS, T_SIN_O, T_TWO_SIDED, T_W
 
 ONE_MINUS = 0.99999994
+NO_SAMPLE = (-1, 0.0)
+# `choose_lights` splits at the first MAX_SPLITS nodes of its trail whose less likely child has a
+# probability of at most SPLIT_BELOW
+MAX_SPLITS = 2                 # at most 2: `choose_lights` returns two side samples
+SPLIT_BELOW = 0.25
 
 
 @nb.njit(**_JIT)
@@ -74,20 +80,11 @@ def _p_unbounded(L):
 
 
 @nb.njit(**_JIT)
-def choose_light(L, p, n, u):
-    """(light index, its probability) for a light sample at point p with normal n, u in [0, 1); light
-    -1 (probability 0) when no light can light p."""
-    pu = _p_unbounded(L)
-    if u < pu:
-        nu = L.unbounded.shape[0]
-        return L.unbounded[min(int(u / pu * nu), nu - 1)], pu / nu
-    if L.n_bounded == 0:
-        return -1, 0.0
-    u = min((u - pu) / (1.0 - pu), ONE_MINUS)
+def _walk(L, p, n, node, pmf, u):
+    """The light a plain walk from `node` reaches (each child with its probability), and its
+    probability (times `pmf`, the probability of reaching `node`)."""
     tf = L.tree_f
     ti = L.tree_i
-    node = 0
-    pmf = 1.0 - pu
     while ti[node, 1] == 0:
         c1 = ti[node, 0]
         i0 = importance(tf, node + 1, p, n)
@@ -103,14 +100,72 @@ def choose_light(L, p, n, u):
             node = c1
             u = min((u - p0) / (1.0 - p0), ONE_MINUS)
             pmf *= 1.0 - p0
-    if node == 0 and not importance(tf, 0, p, n) > 0.0:      # a lone light that cannot light p
-        return -1, 0.0
     return ti[node, 0], pmf
 
 
 @nb.njit(**_JIT)
+def choose_lights(L, p, n, u):
+    """The light samples of a path vertex at point p with normal n, u in [0, 1): ((light, its
+    expected number of samples there) for the main sample and for up to MAX_SPLITS side samples),
+    light -1 where there is none.
+
+    A walk from the root that takes each child with its probability, except at the first MAX_SPLITS
+    nodes of its trail where one child holds at least 1 - SPLIT_BELOW of the probability: there it
+    takes the likely child always (probability 1) and, with the probability q of the other, also a side
+    sample: a plain walk from the other child, weighted 1 / q.  So a light that outshines the rest is
+    sampled at every vertex (its estimate loses the variance of being chosen: the noise of a
+    dominant light, issue 13), at the cost of q extra light samples where the rest is unlikely; where
+    the children are balanced nothing changes.  Unbiased: each light's estimate is divided by its
+    expected number of samples, which `light_pmf` returns for the MIS weights."""
+    pu = _p_unbounded(L)
+    if u < pu:
+        nu = L.unbounded.shape[0]
+        return (L.unbounded[min(int(u / pu * nu), nu - 1)], pu / nu), NO_SAMPLE, NO_SAMPLE
+    if L.n_bounded == 0:
+        return NO_SAMPLE, NO_SAMPLE, NO_SAMPLE
+    u = min((u - pu) / (1.0 - pu), ONE_MINUS)
+    tf = L.tree_f
+    ti = L.tree_i
+    node = 0
+    pmf = 1.0 - pu
+    sides = (NO_SAMPLE, NO_SAMPLE)
+    splits = 0
+    while ti[node, 1] == 0:
+        c1 = ti[node, 0]
+        i0 = importance(tf, node + 1, p, n)
+        i1 = importance(tf, c1, p, n)
+        if not (i0 + i1 > 0.0):
+            return NO_SAMPLE, sides[0], sides[1]
+        p0 = i0 / (i0 + i1)
+        q = min(p0, 1.0 - p0)
+        if splits < MAX_SPLITS and 0.0 < q <= SPLIT_BELOW:
+            likely, other = (node + 1, c1) if p0 >= 0.5 else (c1, node + 1)
+            side = NO_SAMPLE
+            if u < q:
+                u = min(u / q, ONE_MINUS)
+                side = _walk(L, p, n, other, pmf * q, u)
+            else:
+                u = min((u - q) / (1.0 - q), ONE_MINUS)
+            sides = (side, sides[0]) if splits == 0 else (sides[0], side)
+            splits += 1
+            node = likely
+        elif u < p0:
+            node += 1
+            u = min(u / p0, ONE_MINUS)
+            pmf *= p0
+        else:
+            node = c1
+            u = min((u - p0) / (1.0 - p0), ONE_MINUS)
+            pmf *= 1.0 - p0
+    if node == 0 and not importance(tf, 0, p, n) > 0.0:      # a lone light that cannot light p
+        return NO_SAMPLE, NO_SAMPLE, NO_SAMPLE
+    return (ti[node, 0], pmf), sides[0], sides[1]
+
+
+@nb.njit(**_JIT)
 def light_pmf(L, p, n, k):
-    """The probability that `choose_light` at point p with normal n returns light k."""
+    """The expected number of samples `choose_lights` at point p with normal n takes of light k (its
+    probability, for a light reached without a side sample)."""
     d = L.depth[k]
     if d < 0:                                        # a light without a position
         pu = _p_unbounded(L)
@@ -122,16 +177,23 @@ def light_pmf(L, p, n, k):
         return pmf if importance(tf, 0, p, n) > 0.0 else 0.0
     trail = L.trail[k]
     node = 0
+    splits = 0                                       # MAX_SPLITS + 1: on a side walk, no more splits
     for level in range(d):
         c1 = ti[node, 0]
         i0 = importance(tf, node + 1, p, n)
         i1 = importance(tf, c1, p, n)
         if not (i0 + i1 > 0.0):
             return 0.0
-        if (trail >> level) & 1:
-            pmf *= i1 / (i0 + i1)
-            node = c1
+        p0 = i0 / (i0 + i1)
+        pk = 1.0 - p0 if (trail >> level) & 1 else p0
+        q = min(p0, 1.0 - p0)
+        if splits < MAX_SPLITS and 0.0 < q <= SPLIT_BELOW:
+            if pk > 0.5:                             # the likely child: always taken
+                splits += 1
+            else:                                                          # the side sample's child
+                pmf *= q
+                splits = MAX_SPLITS + 1
         else:
-            pmf *= i0 / (i0 + i1)
-            node += 1
+            pmf *= pk
+        node = c1 if (trail >> level) & 1 else node + 1
     return pmf

@@ -4,8 +4,8 @@ by multiple importance sampling (Veach 1997, ch. 9; power heuristic, beta = 2).
 At every vertex a path collects the light it sees (emission of the light shapes its last ray
 crossed, of the surface it hit - emissive surfaces are lights too, `surface_lights.py` -, of the sky
 if it escaped: MIS-weighted against the light sample that could have found the same light), then
-samples one light chosen from the light tree (`light_tree.choose_light`: by power, distance and
-orientation) towards which it casts a shadow ray, then samples its BSDF (`bsdf.sample`) for the
+samples one light chosen from the light tree (`light_tree.choose_lights`: by power, distance and
+orientation; two or three where one light outshines the rest) towards which it casts a shadow ray, then samples its BSDF (`bsdf.sample`) for the
 next ray.  Delta lights (point, distant without angle) are found by next-event estimation alone,
 delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D counts bounces as pbrt does:
 D = 0 is emission only, D = 1 direct light only.  After RR_DEPTH bounces, Russian roulette ends a
@@ -42,7 +42,7 @@ from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission
-from .light_tree import choose_light
+from .light_tree import choose_lights
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
@@ -87,13 +87,28 @@ def vertex_bsdf(S, sp):
 
 @nb.njit(**STAGE_JIT)
 def next_event(S, L, tr, key, v, vtx, b, strategy):
-    """Light from one light sample at path vertex v (its `Vertex` vtx, its BSDF b), MIS-weighted
-    against BSDF sampling, not yet multiplied by the path throughput."""
-    k, pk = choose_light(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index, key.spp,
-                                                     path_dim(v, P_CHOICE)))
-    if k < 0:
+    """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b): one, and a side
+    sample or two where the light tree splits (`light_tree.choose_lights`), each MIS-weighted against
+    BSDF sampling; not yet multiplied by the path throughput."""
+    main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index,
+                                                                   key.spp, path_dim(v, P_CHOICE)))
+    if main[0] < 0 and side1[0] < 0 and side2[0] < 0:
         return BLACK
     u1, u2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))
+    c = light_sample(S, L, tr, vtx, b, strategy, main, u1, u2)
+    if side1[0] >= 0:
+        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side1, u1, u2))
+    if side2[0] >= 0:
+        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side2, u1, u2))
+    return c
+
+
+@nb.njit(**STAGE_JIT)
+def light_sample(S, L, tr, vtx, b, strategy, chosen, u1, u2):
+    """Light from one sample of light chosen = (k, its expected number of samples pk) at vertex vtx."""
+    k, pk = chosen
+    if k < 0:
+        return BLACK
     wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u1, u2)
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK

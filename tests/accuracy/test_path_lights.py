@@ -36,6 +36,20 @@ def _rects():
     return [near, far]
 
 
+def _many_rects():
+    """A dominant rect light and 15 faint small ones: the light tree splits at the top levels (the
+    dominant light in every light sample, the faint ones in side samples)."""
+    rng = np.random.default_rng(11)
+    main = _disk((0.0, 2.5, 0.0), 0.0, (10.0,) * 3)
+    main.type, main.path, main.width, main.height = D.RECT, '/main', 1.5, 1.5
+    out = [main]
+    for k in range(15):
+        r = _disk(tuple(rng.uniform([-3.5, 0.8, -3.5], [3.5, 2.0, 3.5])), 0.0, (3.0,) * 3)
+        r.type, r.path, r.width, r.height = D.RECT, f'/faint{k}', 0.3, 0.3
+        out.append(r)
+    return out
+
+
 def _sky():
     h, w = 16, 32
     px = np.full((h, w, 3), 0.2, np.float32)
@@ -48,6 +62,7 @@ LIGHTS = {
                         radius=0.25)], ()),
     'disk': ([_disk((-1.0, 2.5, 0.5), 0.4, (15.0,) * 3)], ()),
     'rect': (_rects(), ()),
+    'many rects': (_many_rects(), ()),
     'cylinder': ([D.Light(path='/c', type=D.CYLINDER, matrix=translate(0.3, 1.6, -0.8), radiance=(8.0,) * 3,
                           radius=0.25, length=1.2)], ()),
     'distant': ([D.Light(path='/d', type=D.DISTANT, matrix=np.linalg.inv(look_at((0, 0, 0), (-1, -2, -1)))

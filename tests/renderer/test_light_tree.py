@@ -1,5 +1,6 @@
-"""The light tree (host/light_tree.py, kernel/light_tree.py): the probabilities of all lights at a point
-sum to 1, `choose_light` draws each light with the probability `light_pmf` reports, the importance of
+"""The light tree (host/light_tree.py, kernel/light_tree.py): `choose_lights` takes each light as many
+times per vertex on average as `light_pmf` reports (at least one sample; a dominant light at every
+vertex), the importance of
 a point light is its power over the squared distance times the receiver's cosine, cone unions hold
 both cones, and a light behind a one-sided rect's back or below the receiver's horizon is never chosen."""
 import math
@@ -11,7 +12,7 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import ENTIRE, cone_union
-from rtc.renderer.kernel.light_tree import choose_light, importance, light_pmf
+from rtc.renderer.kernel.light_tree import MAX_SPLITS, SPLIT_BELOW, choose_lights, importance, light_pmf
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -51,17 +52,47 @@ POINTS = [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), ((3.0, 0.0, -2.0), (0.0, 1.0, 0.0)
 
 
 @pytest.mark.parametrize('p, n', POINTS)
-def test_probabilities_sum_to_one_and_match_the_draws(lights, p, n):
+def test_expected_sample_counts_match_the_draws(lights, p, n):
+    """light_pmf(k) is the expected number of samples of light k per vertex: at least one sample in
+    all (more where the tree splits), each returned with that number, and stratified draws of u take
+    each light that many times per draw, to within the count granularity."""
     pmf = np.array([light_pmf(lights, p, n, k) for k in range(62)])
-    assert pmf.sum() == pytest.approx(1.0, abs=1e-9)
+    assert 1.0 - 1e-9 <= pmf.sum() <= 1.0 + MAX_SPLITS * SPLIT_BELOW + 1e-9
     draws = 20000
     counts = np.zeros(62)
     for i in range(draws):
-        k, pk = choose_light(lights, p, n, (i + 0.5) / draws)
-        counts[k] += 1
-        assert pk == pytest.approx(pmf[k], rel=1e-9)
-    # stratified u: each light's share is its probability to within the count granularity
-    assert np.max(np.abs(counts / draws - pmf)) < 3.0 / draws + 1e-9
+        for k, pk in choose_lights(lights, p, n, (i + 0.5) / draws):
+            if k >= 0:
+                counts[k] += 1
+                assert pk == pytest.approx(pmf[k], rel=1e-9)
+    assert np.max(np.abs(counts / draws - pmf)) < 5.0 / draws + 1e-9
+
+
+def test_a_dominant_light_is_sampled_at_every_vertex():
+    """One bright rect among faint point lights: the walk splits at the top levels and takes it (nearly)
+    every time, the faint lights in side samples with their own probabilities."""
+    rng = np.random.default_rng(5)
+    faint = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(*rng.uniform([-8, 0.5, -8], [8, 3, 8])),
+                     radiance=(0.01,) * 3) for k in range(200)]
+    desc = scene([D.Container('/', meshes=[quad(12.0)])], [D.Material('/m')],
+                 [_rect((0.0, 6.0, 0.0), (0, -1, 0), 3.0, 20.0)] + faint,
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    try:
+        for x, z in ((0.0, 0.0), (-5.0, 3.0), (4.0, 4.0)):
+            p = (x, -3.0, z - 8.0)                    # floor points, relative to the camera
+            pmf = np.array([light_pmf(L, p, (0.0, 1.0, 0.0), k) for k in range(201)])
+            assert pmf[0] > 0.99
+            assert 0.0 < pmf[1:].sum() <= MAX_SPLITS * SPLIT_BELOW + (1.0 - pmf[0])
+            draws = 4000
+            taken = sum(any(k == 0 for k, _ in choose_lights(L, p, (0.0, 1.0, 0.0), (i + 0.5) / draws))
+                        for i in range(draws))
+            assert abs(taken / draws - pmf[0]) < 2.0 / draws
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
 
 
 def test_the_dome_is_chosen_with_its_share(lights):
@@ -77,7 +108,7 @@ def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
     try:                                              # points relative to the camera, as the kernels see them
         above = (0.0, 5.0 - 3.0, -8.0)                # above both rects: their backs face it
         assert light_pmf(L, above, (0.0, 1.0, 0.0), 0) == 0.0 and light_pmf(L, above, (0.0, 1.0, 0.0), 1) == 0.0
-        assert choose_light(L, above, (0.0, 1.0, 0.0), 0.3) == (-1, 0.0)
+        assert all(k < 0 for k, _ in choose_lights(L, above, (0.0, 1.0, 0.0), 0.3))
         below = (0.0, -3.0, -8.0)                     # under the first rect, 3 from the second
         assert light_pmf(L, below, (0.0, 1.0, 0.0), 0) > light_pmf(L, below, (0.0, 1.0, 0.0), 1) > 0.0
     finally:
