@@ -92,15 +92,17 @@ def _walk(L, p, n, node, pmf, u):
         if not (i0 + i1 > 0.0):
             return -1, 0.0
         p0 = i0 / (i0 + i1)
-        if u < p0:
-            node += 1
-            u = min(u / p0, ONE_MINUS)
-            pmf *= p0
-        else:
-            node = c1
-            u = min((u - p0) / (1.0 - p0), ONE_MINUS)
-            pmf *= 1.0 - p0
+        node, pmf, u = _step(node, c1, p0, pmf, u)
     return ti[node, 0], pmf
+
+
+@nb.njit(**_JIT)
+def _step(node, c1, p0, pmf, u):
+    """One step of a walk: (child, pmf times its probability, u rescaled inside its interval), the
+    first child (node + 1) when u < p0, else the second (c1)."""
+    if u < p0:
+        return node + 1, pmf * p0, min(u / p0, ONE_MINUS)
+    return c1, pmf * (1.0 - p0), min((u - p0) / (1.0 - p0), ONE_MINUS)
 
 
 @nb.njit(**_JIT)
@@ -149,14 +151,8 @@ def choose_lights(L, p, n, u):
             sides = (side, sides[0]) if splits == 0 else (sides[0], side)
             splits += 1
             node = likely
-        elif u < p0:
-            node += 1
-            u = min(u / p0, ONE_MINUS)
-            pmf *= p0
         else:
-            node = c1
-            u = min((u - p0) / (1.0 - p0), ONE_MINUS)
-            pmf *= 1.0 - p0
+            node, pmf, u = _step(node, c1, p0, pmf, u)
     if node == 0 and not importance(tf, 0, p, n) > 0.0:      # a lone light that cannot light p
         return NO_SAMPLE, NO_SAMPLE, NO_SAMPLE
     return (ti[node, 0], pmf), sides[0], sides[1]
