@@ -99,7 +99,7 @@ def sample_ld(S, L, k, p, n, u1, u2):
         if t == D.RECT:
             sr = near_rect(p, c, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H])
             if sr[0] > 0.0:
-                return _spherical_rect_ld(p, sr, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H], u1, u2, Lr)
+                return _spherical_rect_ld(p, sr, (ex, ey, nrm), (lf[k, LF_W], lf[k, LF_H]), (u1, u2), Lr)
             a = (u1 - 0.5) * lf[k, LF_W]
             b = (u2 - 0.5) * lf[k, LF_H]
         else:
@@ -244,9 +244,11 @@ def spherical_rect_point(sr, w, h, u1, u2):
 
 
 @nb.njit(**_JIT)
-def _spherical_rect_ld(p, sr, ex, ey, nrm, w, h, u1, u2, Lr):
-    """`sample_ld` of a w x h rect light seen from p by its spherical rectangle sr: pdf 1 / S."""
-    x, y = spherical_rect_point(sr, w, h, u1, u2)
+def _spherical_rect_ld(p, sr, frame, size, u, Lr):
+    """`sample_ld` of a rect light (its frame (ex, ey, nrm), its size (w, h)) seen from p by its spherical
+    rectangle sr, for the sample u = (u1, u2): pdf 1 / S."""
+    ex, ey, nrm = frame
+    x, y = spherical_rect_point(sr, size[0], size[1], u[0], u[1])
     z = sr[3]
     v = (x * ex[0] + y * ey[0] - z * nrm[0], x * ex[1] + y * ey[1] - z * nrm[1], x * ex[2] + y * ey[2] - z * nrm[2])
     d2 = dot(v, v)

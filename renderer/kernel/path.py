@@ -94,22 +94,23 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
                                                                    key.spp, path_dim(v, P_CHOICE)))
     if main[0] < 0 and side1[0] < 0 and side2[0] < 0:
         return BLACK
-    u1, u2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))
-    c = light_sample(S, L, tr, vtx, b, strategy, main, u1, u2)
+    u = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))
+    c = light_sample(S, L, tr, vtx, b, strategy, main, u)
     if side1[0] >= 0:
-        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side1, u1, u2))
+        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side1, u))
     if side2[0] >= 0:
-        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side2, u1, u2))
+        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side2, u))
     return c
 
 
 @nb.njit(**STAGE_JIT)
-def light_sample(S, L, tr, vtx, b, strategy, chosen, u1, u2):
-    """Light from one sample of light chosen = (k, its expected number of samples pk) at vertex vtx."""
+def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
+    """Light from one sample u = (u1, u2) of light chosen = (k, its expected number of samples pk) at
+    vertex vtx."""
     k, pk = chosen
     if k < 0:
         return BLACK
-    wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u1, u2)
+    wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     fc, pb = evaluate(b, vtx.wo, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
