@@ -51,6 +51,7 @@ SPHERICAL_MAX = 6.22
 NEAR_FIELD = 1.0
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
+NO_RECT = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0)    # a `spherical_rect` of solid angle 0: not sampled by it
 
 
 @nb.njit(**_JIT)
@@ -161,11 +162,9 @@ def near_rect(p, c, ex, ey, nrm, w, h):
     SPHERICAL_MAX]; else S = 0 (sampled by area)."""
     v = sub(c, p)
     if dot(v, v) >= NEAR_FIELD * NEAR_FIELD * (w * w + h * h):
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return NO_RECT
     sr = spherical_rect(p, c, ex, ey, nrm, w, h)
-    if SPHERICAL_MIN <= sr[0] <= SPHERICAL_MAX:
-        return sr
-    return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    return sr if SPHERICAL_MIN <= sr[0] <= SPHERICAL_MAX else NO_RECT
 
 
 @nb.njit(**_JIT)
@@ -181,7 +180,7 @@ def spherical_rect(p, c, ex, ey, nrm, w, h):
     dv = sub(s, p)
     z0 = dot(dv, nrm)
     if not z0 > 0.0:
-        return 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return NO_RECT
     z0 = -z0                                  # the frame's z axis is -nrm: p sees the corner below it
     x0 = dot(dv, ex)
     y0 = dot(dv, ey)

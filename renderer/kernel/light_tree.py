@@ -186,7 +186,7 @@ def light_pmf(L, p, n, k):
         if splits < MAX_SPLITS and 0.0 < q <= SPLIT_BELOW:
             if pk > 0.5:                             # the likely child: always taken
                 splits += 1
-            else:                                                          # the side sample's child
+            else:                                    # the side sample's child
                 pmf *= q
                 splits = MAX_SPLITS + 1
         else:

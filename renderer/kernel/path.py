@@ -5,8 +5,8 @@ At every vertex a path collects the light it sees (emission of the light shapes 
 crossed, of the surface it hit - emissive surfaces are lights too, `surface_lights.py` -, of the sky
 if it escaped: MIS-weighted against the light sample that could have found the same light), then
 samples one light chosen from the light tree (`light_tree.choose_lights`: by power, distance and
-orientation; two or three where one light outshines the rest) towards which it casts a shadow ray, then samples its BSDF (`bsdf.sample`) for the
-next ray.  Delta lights (point, distant without angle) are found by next-event estimation alone,
+orientation; one or two more where one light outshines the rest) towards which it casts a shadow ray,
+then samples its BSDF (`bsdf.sample`) for the next ray.  Delta lights (point, distant without angle) are found by next-event estimation alone,
 delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D counts bounces as pbrt does:
 D = 0 is emission only, D = 1 direct light only.  After RR_DEPTH bounces, Russian roulette ends a
 path with probability 1 - min(1, max throughput) (throughput without the 1/eta^2 of refraction) and
@@ -54,7 +54,7 @@ from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, hit_of, intersect1, intersect1_surfaces, intersect16,
                     lane_hit, occluded1_surfaces)
-from .vecmath import dot, offset_origin, onb, to_world
+from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
 MIS, NEE_ONLY, BSDF_ONLY = 0, 1, 2
@@ -88,8 +88,9 @@ def vertex_bsdf(S, sp):
 @nb.njit(**STAGE_JIT)
 def next_event(S, L, tr, key, v, vtx, b, strategy):
     """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b): one, and a side
-    sample or two where the light tree splits (`light_tree.choose_lights`), each MIS-weighted against
-    BSDF sampling; not yet multiplied by the path throughput."""
+    sample or two where the light tree splits (`light_tree.choose_lights`; each of another light, all
+    from the same light-point sample), each MIS-weighted against BSDF sampling; not yet multiplied by
+    the path throughput."""
     main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index,
                                                                    key.spp, path_dim(v, P_CHOICE)))
     if main[0] < 0 and side1[0] < 0 and side2[0] < 0:
@@ -97,9 +98,9 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
     u = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))
     c = light_sample(S, L, tr, vtx, b, strategy, main, u)
     if side1[0] >= 0:
-        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side1, u))
+        c = add(c, light_sample(S, L, tr, vtx, b, strategy, side1, u))
     if side2[0] >= 0:
-        c = _add(c, (1.0, 1.0, 1.0), light_sample(S, L, tr, vtx, b, strategy, side2, u))
+        c = add(c, light_sample(S, L, tr, vtx, b, strategy, side2, u))
     return c
 
 
