@@ -14,9 +14,10 @@ from .tables import T_C, T_COS_E, T_COS_O, T_HALF_DIAG, T_PHI, T_RADIUS, T_SIN_O
 ONE_MINUS = 0.99999994
 NO_SAMPLE = (-1, 0.0)
 # `choose_lights` splits at the first MAX_SPLITS nodes of its trail whose less likely child has a
-# probability of at most SPLIT_BELOW
-MAX_SPLITS = 2                 # at most 2: `choose_lights` returns two side samples
+# probability q of at most SPLIT_BELOW, and below them at every node with q at most SPLIT_DEEP
 SPLIT_BELOW = 0.25
+MAX_SPLITS = 2
+SPLIT_DEEP = 0.01
 
 
 @nb.njit(**_JIT)
@@ -108,17 +109,19 @@ def _step(node, c1, p0, pmf, u):
 @nb.njit(**_JIT)
 def choose_lights(L, p, n, u):
     """The light samples of a path vertex at point p with normal n, u in [0, 1): ((light, its
-    expected number of samples there) for the main sample and for up to MAX_SPLITS side samples),
-    light -1 where there is none.
+    expected number of samples there) for the main sample and for up to two side samples), light -1
+    where there is none.
 
-    A walk from the root that takes each child with its probability, except at the first MAX_SPLITS
-    nodes of its trail where one child holds at least 1 - SPLIT_BELOW of the probability: there it
-    takes the likely child always (probability 1) and, with the probability q of the other, also a side
-    sample: a plain walk from the other child, weighted 1 / q.  So a light that outshines the rest is
-    sampled at every vertex (its estimate loses the variance of being chosen: the noise of a
-    dominant light, issue 13), at the cost of q extra light samples where the rest is unlikely; where
-    the children are balanced nothing changes.  Unbiased: each light's estimate is divided by its
-    expected number of samples, which `light_pmf` returns for the MIS weights."""
+    A walk from the root that takes each child with its probability, except at *split* nodes, where
+    one child is much the likelier (the other's probability q at most SPLIT_BELOW: at the first
+    MAX_SPLITS such nodes of the trail, and deeper where q is at most SPLIT_DEEP): there it takes the
+    likely child always and, with probability q, a side sample: a plain walk from the other child.  At
+    most two side samples are taken: at the first two split nodes where that chance comes up.  So a
+    light that outshines the rest at p is sampled at every vertex: its estimate loses the variance of
+    being chosen and keeps the stratification of the sampler's light-point samples (the noise of a
+    dominant light, issue 13), at the cost of q extra samples where the rest is unlikely; where the
+    children are balanced nothing changes.  Unbiased: each light's estimate is divided by its expected
+    number of samples, which `light_pmf` returns for the MIS weights."""
     pu = _p_unbounded(L)
     if u < pu:
         nu = L.unbounded.shape[0]
@@ -129,39 +132,55 @@ def choose_lights(L, p, n, u):
     tf = L.tree_f
     ti = L.tree_i
     node = 0
-    pmf = 1.0 - pu
-    sides = (NO_SAMPLE, NO_SAMPLE)
+    pmf = 1.0 - pu                                   # probability of reaching node (its walk's choices)
+    none, once = 1.0, 0.0                            # probability of no, one side-sample chance so far
+    s1, w1, u1 = -1, 0.0, 0.0                        # side samples: where their walks start, their
+    s2, w2, u2 = -1, 0.0, 0.0                        # expected counts there, their u there
     splits = 0
     while ti[node, 1] == 0:
         c1 = ti[node, 0]
         i0 = importance(tf, node + 1, p, n)
         i1 = importance(tf, c1, p, n)
         if not (i0 + i1 > 0.0):
-            return NO_SAMPLE, sides[0], sides[1]
+            pmf = 0.0
+            break
         p0 = i0 / (i0 + i1)
         q = min(p0, 1.0 - p0)
-        if splits < MAX_SPLITS and 0.0 < q <= SPLIT_BELOW:
+        if _splits(q, splits):
+            splits += 1
             likely, other = (node + 1, c1) if p0 >= 0.5 else (c1, node + 1)
-            side = NO_SAMPLE
-            if u < q:
+            if u < q:                                # the side sample's chance
                 u = min(u / q, ONE_MINUS)
-                side = _walk(L, p, n, other, pmf * q, u)
+                if s1 < 0:
+                    s1, w1, u1 = other, pmf * q * (none + once), u
+                elif s2 < 0:
+                    s2, w2, u2 = other, pmf * q * (none + once), u
             else:
                 u = min((u - q) / (1.0 - q), ONE_MINUS)
-            sides = (side, sides[0]) if splits == 0 else (sides[0], side)
-            splits += 1
+            none, once = none * (1.0 - q), once * (1.0 - q) + none * q
             node = likely
-        else:
+        else:                                        # (q > SPLIT_BELOW, or splits >= MAX_SPLITS)
             node, pmf, u = _step(node, c1, p0, pmf, u)
-    if node == 0 and not importance(tf, 0, p, n) > 0.0:      # a lone light that cannot light p
-        return NO_SAMPLE, NO_SAMPLE, NO_SAMPLE
-    return (ti[node, 0], pmf), sides[0], sides[1]
+    side1 = _walk(L, p, n, s1, w1, u1) if s1 >= 0 else NO_SAMPLE
+    side2 = _walk(L, p, n, s2, w2, u2) if s2 >= 0 else NO_SAMPLE
+    if pmf == 0.0 or (node == 0 and not importance(tf, 0, p, n) > 0.0):   # (a lone light that cannot light p)
+        return NO_SAMPLE, side1, side2
+    return (ti[node, 0], pmf), side1, side2
+
+
+@nb.njit(**_JIT)
+def _splits(q, splits):
+    """Whether `choose_lights` splits at a node whose less likely child has probability q, after
+    `splits` nodes above it (on its trail) with q in (0, SPLIT_BELOW]."""
+    return 0.0 < q <= SPLIT_BELOW and (splits < MAX_SPLITS or q <= SPLIT_DEEP)
 
 
 @nb.njit(**_JIT)
 def light_pmf(L, p, n, k):
-    """The expected number of samples `choose_lights` at point p with normal n takes of light k (its
-    probability, for a light reached without a side sample)."""
+    """The expected number of samples `choose_lights` at point p with normal n takes of light k: the
+    product of the probabilities of the children on its trail, where a split node's likely child
+    counts 1 and its other child q times the probability that fewer than two side-sample chances came
+    up above it."""
     d = L.depth[k]
     if d < 0:                                        # a light without a position
         pu = _p_unbounded(L)
@@ -173,7 +192,9 @@ def light_pmf(L, p, n, k):
         return pmf if importance(tf, 0, p, n) > 0.0 else 0.0
     trail = L.trail[k]
     node = 0
-    splits = 0                                       # MAX_SPLITS + 1: on a side walk, no more splits
+    none, once = 1.0, 0.0
+    splits = 0
+    side = False                                     # k is past a split node's less likely child
     for level in range(d):
         c1 = ti[node, 0]
         i0 = importance(tf, node + 1, p, n)
@@ -183,12 +204,13 @@ def light_pmf(L, p, n, k):
         p0 = i0 / (i0 + i1)
         pk = 1.0 - p0 if (trail >> level) & 1 else p0
         q = min(p0, 1.0 - p0)
-        if splits < MAX_SPLITS and 0.0 < q <= SPLIT_BELOW:
-            if pk > 0.5:                             # the likely child: always taken
-                splits += 1
-            else:                                    # the side sample's child
-                pmf *= q
-                splits = MAX_SPLITS + 1
+        if not side and _splits(q, splits):
+            splits += 1
+            if pk > 0.5:
+                none, once = none * (1.0 - q), once * (1.0 - q) + none * q
+            else:
+                pmf *= q * (none + once)
+                side = True
         else:
             pmf *= pk
         node = c1 if (trail >> level) & 1 else node + 1

@@ -12,7 +12,7 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import ENTIRE, cone_union
-from rtc.renderer.kernel.light_tree import MAX_SPLITS, SPLIT_BELOW, choose_lights, importance, light_pmf
+from rtc.renderer.kernel.light_tree import SPLIT_BELOW, SPLIT_DEEP, choose_lights, importance, light_pmf
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -53,24 +53,30 @@ POINTS = [((0.0, 0.0, 0.0), (0.0, 1.0, 0.0)), ((3.0, 0.0, -2.0), (0.0, 1.0, 0.0)
 
 @pytest.mark.parametrize('p, n', POINTS)
 def test_expected_sample_counts_match_the_draws(lights, p, n):
-    """light_pmf(k) is the expected number of samples of light k per vertex: at least one sample in
-    all (more where the tree splits), each returned with that number, and stratified draws of u take
-    each light that many times per draw, to within the count granularity."""
+    """light_pmf(k) is the expected number of samples of light k per vertex: one main sample and at
+    most two side samples of other lights, each returned with that number, and stratified draws of u
+    take each light that many times per draw, to within the count granularity."""
     pmf = np.array([light_pmf(lights, p, n, k) for k in range(62)])
-    assert 1.0 - 1e-9 <= pmf.sum() <= 1.0 + MAX_SPLITS * SPLIT_BELOW + 1e-9
+    assert 1.0 - 1e-9 <= pmf.sum() < 3.0
     draws = 20000
     counts = np.zeros(62)
+    sides = 0
     for i in range(draws):
-        for k, pk in choose_lights(lights, p, n, (i + 0.5) / draws):
+        (main, pm), *rest = chosen = choose_lights(lights, p, n, (i + 0.5) / draws)
+        assert main >= 0 and main not in [k for k, _ in rest]
+        sides += sum(k >= 0 for k, _ in rest)
+        for k, pk in chosen:
             if k >= 0:
                 counts[k] += 1
                 assert pk == pytest.approx(pmf[k], rel=1e-9)
     assert np.max(np.abs(counts / draws - pmf)) < 5.0 / draws + 1e-9
+    assert sides / draws == pytest.approx(pmf.sum() - 1.0, abs=5.0 / draws)
 
 
 def test_a_dominant_light_is_sampled_at_every_vertex():
-    """One bright rect among faint point lights: the walk splits at the top levels and takes it (nearly)
-    every time, the faint lights in side samples with their own probabilities."""
+    """One bright rect among faint point lights: the walk splits on its whole trail and takes it every
+    time (expected count 1: the variance of choosing it is gone, and its samples keep the sampler's
+    stratification), the faint lights in side samples."""
     rng = np.random.default_rng(5)
     faint = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(*rng.uniform([-8, 0.5, -8], [8, 3, 8])),
                      radiance=(0.01,) * 3) for k in range(200)]
@@ -83,12 +89,52 @@ def test_a_dominant_light_is_sampled_at_every_vertex():
         for x, z in ((0.0, 0.0), (-5.0, 3.0), (4.0, 4.0)):
             p = (x, -3.0, z - 8.0)                    # floor points, relative to the camera
             pmf = np.array([light_pmf(L, p, (0.0, 1.0, 0.0), k) for k in range(201)])
-            assert pmf[0] > 0.99
-            assert 0.0 < pmf[1:].sum() <= MAX_SPLITS * SPLIT_BELOW + (1.0 - pmf[0])
+            assert pmf[0] == 1.0
+            assert 0.0 < pmf[1:].sum() < 0.1
             draws = 4000
-            taken = sum(any(k == 0 for k, _ in choose_lights(L, p, (0.0, 1.0, 0.0), (i + 0.5) / draws))
-                        for i in range(draws))
-            assert abs(taken / draws - pmf[0]) < 2.0 / draws
+            mains = {choose_lights(L, p, (0.0, 1.0, 0.0), (i + 0.5) / draws)[0] for i in range(draws)}
+            assert mains == {(0, 1.0)}                # the dominant light, at every draw
+    finally:
+        if shapes is not None:
+            shapes.close()
+        built.close()
+
+
+def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
+    """Eight point lights on a line, far from the receiver (so importance ~ power), with powers that
+    make light 0's trail split three times: q = 0.24, 0.24 at the top, 0.008 (below SPLIT_DEEP) at the
+    bottom.  Light 1, past the third split's less likely child, has the expected count q3 times the
+    chance that fewer than two side samples were taken above, 1 - q1 q2 (from the importances, an
+    independent closed form), and stratified draws take it that often."""
+    top, rest = 0.76, 0.24                            # root: lights 0-3 / 4-7
+    pair01, pair23 = 0.76 * top, 0.24 * top           # lights 0-1 / 2-3
+    powers = [(1 - 0.008) * pair01, 0.008 * pair01, pair23 / 2, pair23 / 2] + [rest / 4] * 4
+    lights = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(float(k), 0.0, 0.0), radiance=(100.0 * w,) * 3)
+              for k, w in enumerate(powers)]
+    desc = scene([D.Container('/', meshes=[quad(4.0, y=-50.0)])], [D.Material('/m')], lights,
+                 D.Camera(path='/cam', matrix=look_at((3.5, 0.0, 1000.0), (3.5, 0.0, 0.0))))
+    built = build(desc)
+    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    try:
+        p, n = (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)      # at the camera, facing the lights
+        tf, ti = L.tree_f, L.tree_i
+        qs, node = [], 0
+        for level in range(L.depth[0]):               # light 0's trail: the q of each node on it
+            i0, i1 = importance(tf, node + 1, p, n), importance(tf, ti[node, 0], p, n)
+            qs.append(min(i0, i1) / (i0 + i1))
+            node = ti[node, 0] if (L.trail[0] >> level) & 1 else node + 1
+        assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
+        assert light_pmf(L, p, n, 0) == 1.0
+        assert light_pmf(L, p, n, 1) == pytest.approx(qs[2] * (1.0 - qs[0] * qs[1]), rel=1e-9)
+        pmf = [light_pmf(L, p, n, k) for k in range(8)]
+        draws = 100000
+        taken = 0
+        for i in range(draws):
+            for k, pk in choose_lights(L, p, n, (i + 0.5) / draws):
+                if k >= 0:
+                    assert pk == pytest.approx(pmf[k], rel=1e-9)
+                    taken += k == 1
+        assert taken / draws == pytest.approx(pmf[1], abs=3.0 / draws)
     finally:
         if shapes is not None:
             shapes.close()
