@@ -1,6 +1,6 @@
 """Time per sample of the path integrator against the number of lights (issue 13, "many lights").
 
-    python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--repeats 3]
+    python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--repeats 3] [--glossy]
 
 A USD stage: a floor lit by one dominant 3 x 3 rect light and a 10 x 10 grid of instanced lamps (native
 instancing: each prototype holds a small box and, in the many-light scenes, a 0.2 x 0.2 RectLight, so 100
@@ -27,17 +27,21 @@ import time
 import numpy as np
 
 
-def stage(n_lights: int, minor: float = 1.0, lamps: bool = True):
+def stage(n_lights: int, minor: float = 1.0, lamps: bool = True, glossy: bool = False):
     """The stage with n_lights lights: the dominant rect light, and the minor lights' intensities times
-    `minor`; `lamps`: the grid of 100 instanced lamps (their boxes, and their lights if n_lights > 100)."""
+    `minor`; `lamps`: the grid of 100 instanced lamps (their boxes, and their lights if n_lights > 100);
+    `glossy`: the scene of another character - the dominant light a sphere (radius 0.6) off-centre, the
+    floor and boxes a rough metal (roughness 0.2)."""
     from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
     st = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
     mat = UsdShade.Material.Define(st, '/Looks/Grey')
     sh = UsdShade.Shader.Define(st, '/Looks/Grey/Surface')
     sh.CreateIdAttr('UsdPreviewSurface')
-    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(0.6, 0.6, 0.6))
-    sh.CreateInput('roughness', Sdf.ValueTypeNames.Float).Set(0.4)
+    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*((0.8, 0.7, 0.5) if glossy else (0.6,) * 3)))
+    sh.CreateInput('roughness', Sdf.ValueTypeNames.Float).Set(0.2 if glossy else 0.4)
+    if glossy:
+        sh.CreateInput('metallic', Sdf.ValueTypeNames.Float).Set(1.0)
     mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
     floor = UsdGeom.Mesh.Define(st, '/World/Floor')
     floor.CreatePointsAttr([(-20, 0, -20), (20, 0, -20), (20, 0, 20), (-20, 0, 20)])
@@ -45,12 +49,18 @@ def stage(n_lights: int, minor: float = 1.0, lamps: bool = True):
     floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
     floor.CreateSubdivisionSchemeAttr(UsdGeom.Tokens.none)
     UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(mat)
-    main = UsdLux.RectLight.Define(st, '/World/Main')             # the dominant light
-    main.CreateWidthAttr(3.0)
-    main.CreateHeightAttr(3.0)
-    main.CreateIntensityAttr(20.0)
-    UsdGeom.Xformable(main).AddTranslateOp().Set(Gf.Vec3d(0, 6, 0))
-    UsdGeom.Xformable(main).AddRotateXOp().Set(-90.0)
+    if glossy:                                                    # the dominant light
+        main = UsdLux.SphereLight.Define(st, '/World/Main')
+        main.CreateRadiusAttr(0.6)
+        main.CreateIntensityAttr(60.0)
+        UsdGeom.Xformable(main).AddTranslateOp().Set(Gf.Vec3d(-3, 5, -2))
+    else:
+        main = UsdLux.RectLight.Define(st, '/World/Main')
+        main.CreateWidthAttr(3.0)
+        main.CreateHeightAttr(3.0)
+        main.CreateIntensityAttr(20.0)
+        UsdGeom.Xformable(main).AddTranslateOp().Set(Gf.Vec3d(0, 6, 0))
+        UsdGeom.Xformable(main).AddRotateXOp().Set(-90.0)
     rest = n_lights - 1
     n_inst = 100 if lamps and rest >= 100 else 0           # lights inside the lamps
     if lamps:
@@ -102,6 +112,7 @@ def main(argv=None) -> int:
     ap.add_argument('--minor', type=float, default=0.02,
                     help="the 'dominant' scene's minor lights: intensities times this")
     ap.add_argument('--ref-spp', type=int, default=256, help='samples of each scene\'s own reference')
+    ap.add_argument('--glossy', action='store_true', help='a sphere as the dominant light over a rough metal floor')
     a = ap.parse_args(argv)
     from rtc.renderer.host.render import RenderOptions, Renderer
     from rtc.renderer.kernel.tables import LF_RAD
@@ -110,7 +121,7 @@ def main(argv=None) -> int:
               f'{a.lights} lights, dominant': (a.lights, a.minor, True), f'{a.lights} lights, bright': (a.lights, 1.0, True)}
     rs = {}
     for name, (n, minor, lamps) in scenes.items():
-        desc = read_stage(stage(n, minor, lamps), camera_path='/World/Camera')
+        desc = read_stage(stage(n, minor, lamps, a.glossy), camera_path='/World/Camera')
         types = {}
         for l in desc.lights:
             types[l.type] = types.get(l.type, 0) + 1
@@ -122,7 +133,7 @@ def main(argv=None) -> int:
     # same choices and probabilities), with the minor lights' radiance set to zero in the kernel's light
     # table after the tree was built from it: its image is the estimate of the dominant light's light alone
     own = f'{a.lights} lights, dominant: its own light'
-    r = Renderer(read_stage(stage(a.lights, a.minor, True), camera_path='/World/Camera'))
+    r = Renderer(read_stage(stage(a.lights, a.minor, True, a.glossy), camera_path='/World/Camera'))
     r.render(RenderOptions(spp=1, integrator='path', max_depth=3))
     li_f = r.built.data.li_f
     top = li_f[:, LF_RAD:LF_RAD + 3].max(axis=1)
