@@ -9,8 +9,10 @@ today's emission at a hit do; the renderer shades every gprim on both sides).  L
 triangles' normal cone marked two-sided.
 
 Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first + j` of the tree):
-  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A, a sphere's centre and radius
-  sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles (0: a sphere)
+  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A, a sphere's centre and radius;
+         an ellipsoid's centre, axes A and their inverse, and 4 pi |det A| as its AREA
+  sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles (0: a sphere or an
+         ellipsoid), 1 for an ellipsoid
   sl_tri float64 (triangles, 3, 3): world (camera-relative) triangles, one copy per placement
   sl_cdf float64 (triangles,): cumulative area of a light's triangles over A, ending at exactly 1
   sl_row int64 (placement rows of `SceneData`): offset into sl_idx of the row's gprims, -1 if none emits
@@ -18,10 +20,19 @@ Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first
 The world triangles are copied per placement: meant for the few emissive meshes scenes have; more than
 MAX_TRIANGLES of them are warned about (memory, build time).
 
-Not lights (their emission is still added where a ray hits them, with weight 1, as before): ellipsoids
-(spheres placed by a matrix that is no similarity: no area sampling of them), moving placements (a light
-sample would need the placement at the ray's time), emissive UsdPreviewSurfaces with opacity < 1 (a path
-crosses them with probability 1 - opacity), materials whose emission has no luminance.
+A sphere placed by a matrix that is no similarity is an ellipsoid, centre + A n for the unit vectors n:
+a light sampled uniformly in n, whose density per unit area on the ellipsoid is 1 / (4 pi |det A| |A^-T n|)
+(the area element of the map n -> A n), exact at every point (`kernel/surface_lights.py`).
+
+An emissive UsdPreviewSurface with opacity a < 1, which rays find with probability a (and cross with
+1 - a), is a light of radiance a times its emission: the average a ray finds.  Where a BSDF-sampled ray
+does find it, its emission gets the MIS weight of a light sample of that point (the weights depend on the
+direction only, so both strategies stay unbiased); a shadow ray to a point on it stops short of the point
+and crosses other see-through surfaces, parts of the same light among them, with 1 - a each.
+
+Not lights (their emission is still added where a ray hits them, with weight 1, as before): moving
+placements (a light sample would need the placement at the ray's time), materials whose emission has no
+luminance.
 """
 from __future__ import annotations
 
@@ -51,16 +62,20 @@ def _triangle_counts(data) -> np.ndarray:
 
 
 def _emitting(data, rows: np.ndarray, slot: int, g: int):
-    """(materials of gprim slot `slot` (gprim g) at placement rows `rows`, mask of those that make it a
-    light) with the material resolution of `kernel/shapes.surface`."""
+    """(emission of the light that gprim slot `slot` (gprim g) is at each placement row of `rows`, mask of
+    the rows where it is a light), with the material resolution of `kernel/shapes.surface`.  A see-through
+    UsdPreviewSurface (opacity a < 1: rays find it with probability a, `path.trace_path`) emits a times its
+    emission on average: the light's."""
     base = data.in_matset[rows]
     mat = np.full(len(rows), -1, np.int64)
     has = base >= 0
     mat[has] = data.matset[base[has] + slot]
     mat = np.where(mat >= 0, mat, data.gp_material[g])
     emit = data.mat_f[mat, MF_EMIT:MF_EMIT + 3].astype(np.float64)
-    see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (data.mat_f[mat, MF_OPACITY] < 1.0)
-    return mat, (emit @ _LUM > 0.0) & np.all(np.isfinite(emit), 1) & ~see_through
+    opacity = data.mat_f[mat, MF_OPACITY].astype(np.float64)
+    see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (opacity < 1.0)
+    emit[see_through] *= np.maximum(opacity[see_through], 0.0)[:, None]
+    return emit, (emit @ _LUM > 0.0) & np.all(np.isfinite(emit), 1)
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
@@ -105,15 +120,15 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
         for g in range(int(data.pr_gp_start[c]), int(ends[c])):
             sphere = data.gp_kind[g] == GP_SPHERE
             if (own and not glowing[data.gp_material[g]]) or (data.gp_off[g] < 0 if sphere else counts[g] == 0):
-                continue                                  # no emission, an ellipsoid, a mesh without triangles
+                continue                                  # no emission, a mesh without triangles
             slot = g - int(data.pr_gp_start[c])
-            mat, ok = _emitting(data, rows, slot, g)
+            emit, ok = _emitting(data, rows, slot, g)
             m = xf[rows, 0]
             if sphere:
-                ok &= _similarity(m) > 0.0
+                ok &= _invertible(m)
             if not ok.any():
                 continue
-            emit = data.mat_f[mat[ok], MF_EMIT:MF_EMIT + 3].astype(np.float64)
+            emit = emit[ok]
             if sphere:
                 balls.append((rows[ok], slot, _placed_sphere(data.sph[data.gp_off[g]], m[ok]), emit))
                 continue
@@ -136,22 +151,43 @@ def _similarity(m: np.ndarray) -> np.ndarray:
     return np.where(ok, np.sqrt(np.maximum(s2, 0.0)), 0.0)
 
 
+def _invertible(m: np.ndarray) -> np.ndarray:
+    """Whether each placement's (R, 3, 4) linear part is finite and invertible (a sphere placed by it is
+    an ellipsoid, or a sphere if it is a similarity)."""
+    det = np.linalg.det(m[:, :, :3])
+    scale = np.maximum(np.abs(m[:, :, :3]).max(axis=(1, 2)), 1e-300)
+    return np.isfinite(det) & (np.abs(det) > 1e-12 * scale ** 3)
+
+
 def _placed_sphere(cr: np.ndarray, m: np.ndarray):
-    """(world centres (R, 3), radii (R,)) of a sphere (container centre and radius) at placements m."""
-    return m[:, :, :3] @ cr[:3] + m[:, :, 3], cr[3] * _similarity(m)
+    """(world centres (R, 3), radii (R,), axes (R, 3, 3)) of a sphere (container centre and radius) at
+    placements m: radius 0 where the placement is no similarity (an ellipsoid: centre + axes n for the
+    unit vectors n)."""
+    return m[:, :, :3] @ cr[:3] + m[:, :, 3], cr[3] * _similarity(m), cr[3] * m[:, :, :3]
 
 
 def _ball_rows(balls: list, first: int):
     """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive spheres, lights first, first + 1, ..."""
     sl_f, sl_i, bounds, row_lights = [], [], [], []
-    for rows, slot, (centre, radius), emit in balls:
+    for rows, slot, (centre, radius, axes), emit in balls:
         for r in range(len(rows)):
             f = np.zeros(SURFACE_LIGHT_F.width)
-            SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r], RADIUS=radius[r])
+            i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
+            if radius[r] > 0.0:
+                SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r], RADIUS=radius[r])
+                extent = np.full(3, radius[r])
+                projected = np.pi * radius[r] ** 2
+            else:                                        # an ellipsoid: its largest projected area pi s1 s2
+                a = axes[r]
+                SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * abs(np.linalg.det(a)), CENTER=centre[r],
+                                      AXES=a.ravel(), INV=np.linalg.inv(a).ravel())
+                SURFACE_LIGHT_I.write(i, ELLIPSOID=1)
+                extent = np.sqrt((a * a).sum(1))
+                s = np.linalg.svd(a, compute_uv=False)
+                projected = np.pi * s[0] * s[1]
             sl_f.append(f)
-            sl_i.append(np.zeros(SURFACE_LIGHT_I.width, np.int64))
-            bounds.append((centre[r] - radius[r], centre[r] + radius[r], float(np.pi * radius[r] ** 2 * (emit[r] @ _LUM)),
-                           ENTIRE, 0.0, True))
+            sl_i.append(i)
+            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (emit[r] @ _LUM)), ENTIRE, 0.0, True))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
     return sl_f, sl_i, bounds, row_lights
 

@@ -3,10 +3,15 @@ sample on one, and the MIS weight of its emission where a BSDF-sampled ray hits 
 
 A light sample picks a triangle of the light by area (its cumulative-area table) and a point uniformly
 on it, or a point uniformly on a sphere: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total
-area (a sphere's far side, drawn as often, is hidden by its near side: the shadow ray finds it).  Both
+area (a sphere's far side, drawn as often, is hidden by its near side: the shadow ray finds it).  An
+ellipsoid (centre + A n, n on the unit sphere) is sampled uniformly in n: its density per unit area at the
+point of n is 1 / (4 pi |det A| |A^-T n|), the inverse of the map's area element, so A above is replaced
+by that point's 4 pi |det A| |A^-T n| (`_ellipsoid_area`), for a light sample and for a hit alike.  Both
 sides emit (|cos_l|; the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
-the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: an
-ellipsoid, a moving placement, a see-through material) keeps weight 1, as before surfaces were lights.
+the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: a
+moving placement) keeps weight 1, as before surfaces were lights.  A see-through surface (opacity a) is a
+light of a times its emission, found by rays with probability a: its emission where one finds it is
+MIS-weighted like any other (`host/surface_lights.py`).
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -17,7 +22,7 @@ import numba as nb
 
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
-from .tables import SLF_AREA, SLF_CENTER, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_FIRST
+from .tables import SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID
 from .vecmath import cross, dot, normalize, offset_origin, sub, toward
 
@@ -61,15 +66,56 @@ def _triangle_point(L, j, u1, u2):
 
 
 @nb.njit(**_JIT)
-def _sphere_point(L, j, u1, u2):
-    """(point, unit normal) uniformly by area on the sphere of surface light j."""
+def _unit_sphere(u1, u2):
     z = 1.0 - 2.0 * u1
     rr = math.sqrt(max(0.0, 1.0 - z * z))
     phi = 2.0 * math.pi * u2
-    n = (rr * math.cos(phi), rr * math.sin(phi), z)
+    return rr * math.cos(phi), rr * math.sin(phi), z
+
+
+@nb.njit(**_JIT)
+def _sphere_point(L, j, u1, u2):
+    """(point, unit normal) uniformly by area on the sphere of surface light j."""
+    n = _unit_sphere(u1, u2)
     r = L.sl_f[j, SLF_RADIUS]
     return (L.sl_f[j, SLF_CENTER] + r * n[0], L.sl_f[j, SLF_CENTER + 1] + r * n[1],
             L.sl_f[j, SLF_CENTER + 2] + r * n[2]), n
+
+
+@nb.njit(**_JIT)
+def _ellipsoid_area(L, j, n):
+    """(4 pi |det A| |A^-T n|: the inverse of the density per unit area of the ellipsoid of surface light j
+    at its point centre + A n (n a unit vector), A^-T n: the direction of its normal there)."""
+    f = L.sl_f[j]
+    m = (f[SLF_INV] * n[0] + f[SLF_INV + 3] * n[1] + f[SLF_INV + 6] * n[2],     # (A^-1)^T n
+         f[SLF_INV + 1] * n[0] + f[SLF_INV + 4] * n[1] + f[SLF_INV + 7] * n[2],
+         f[SLF_INV + 2] * n[0] + f[SLF_INV + 5] * n[1] + f[SLF_INV + 8] * n[2])
+    return f[SLF_AREA] * math.sqrt(dot(m, m)), m
+
+
+@nb.njit(**_JIT)
+def _ellipsoid_point(L, j, u1, u2):
+    """(point, unit normal, 1 / density per unit area there) of the ellipsoid of surface light j, uniform
+    in the unit vector n of its point centre + A n."""
+    n = _unit_sphere(u1, u2)
+    f = L.sl_f[j]
+    q = (f[SLF_CENTER] + f[SLF_AXES] * n[0] + f[SLF_AXES + 1] * n[1] + f[SLF_AXES + 2] * n[2],
+         f[SLF_CENTER + 1] + f[SLF_AXES + 3] * n[0] + f[SLF_AXES + 4] * n[1] + f[SLF_AXES + 5] * n[2],
+         f[SLF_CENTER + 2] + f[SLF_AXES + 6] * n[0] + f[SLF_AXES + 7] * n[1] + f[SLF_AXES + 8] * n[2])
+    area, m = _ellipsoid_area(L, j, n)
+    return q, normalize(m), area
+
+
+@nb.njit(**_JIT)
+def _ellipsoid_area_at(L, j, p):
+    """`_ellipsoid_area` at the point p of the ellipsoid of surface light j (n = A^-1 (p - centre),
+    normalised: p is a ray's hit, on the surface to rounding)."""
+    f = L.sl_f[j]
+    v = (p[0] - f[SLF_CENTER], p[1] - f[SLF_CENTER + 1], p[2] - f[SLF_CENTER + 2])
+    n = normalize((f[SLF_INV] * v[0] + f[SLF_INV + 1] * v[1] + f[SLF_INV + 2] * v[2],
+                   f[SLF_INV + 3] * v[0] + f[SLF_INV + 4] * v[1] + f[SLF_INV + 5] * v[2],
+                   f[SLF_INV + 6] * v[0] + f[SLF_INV + 7] * v[1] + f[SLF_INV + 8] * v[2]))
+    return _ellipsoid_area(L, j, n)[0]
 
 
 @nb.njit(**_JIT)
@@ -79,7 +125,10 @@ def sample_surface(S, L, k, p, u1, u2):
     the light is real geometry, which the shadow ray (`shadow_ray`) must stop short of; pdf is that of
     the point on the surface."""
     j = k - L.surface_first
-    if L.sl_i[j, SLI_COUNT] == 0:
+    area = L.sl_f[j, SLF_AREA]
+    if L.sl_i[j, SLI_ELLIPSOID] != 0:
+        q, nrm, area = _ellipsoid_point(L, j, u1, u2)
+    elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
     else:
         q, nrm = _triangle_point(L, j, u1, u2)
@@ -89,7 +138,7 @@ def sample_surface(S, L, k, p, u1, u2):
     c = dot(nrm, wi)
     if c == 0.0:
         return NONE
-    pdf = d2 / (abs(c) * L.sl_f[j, SLF_AREA])
+    pdf = d2 / (abs(c) * area)
     qo = offset_origin(q, (-nrm[0], -nrm[1], -nrm[2]) if c > 0.0 else nrm, S.offset_scale[0])
     v = sub((float(qo[0]), float(qo[1]), float(qo[2])), p)
     d = math.sqrt(dot(v, v))
@@ -140,6 +189,8 @@ def surface_emission(S, L, u, Le, hit, prev):
     cos_l = abs(dot(ng, d))
     if not cos_l > 0.0:
         return Le
-    pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * L.sl_f[k - L.surface_first, SLF_AREA])
+    j = k - L.surface_first
+    area = _ellipsoid_area_at(L, j, p) if L.sl_i[j, SLI_ELLIPSOID] != 0 else L.sl_f[j, SLF_AREA]
+    pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * area)
     w = pb * pb / (pb * pb + pl * pl)
     return w * Le[0], w * Le[1], w * Le[2]

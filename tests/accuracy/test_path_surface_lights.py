@@ -2,7 +2,7 @@
 lights a Lambert floor as a RectLight of the same size, placement and radiance does (Lambert's polygon
 formula), by light sampling alone, BSDF sampling alone and MIS; MIS beats BSDF sampling alone when an
 emissive mesh is the only light; every placement of an instanced emissive prototype is a light of its
-own."""
+own; an emissive ellipsoid and a see-through emissive quad light the floor as closed forms say."""
 import numpy as np
 import pytest
 
@@ -119,3 +119,74 @@ def test_an_emissive_sphere_lights_the_floor_as_a_sphere_light():
         img = _render(lit, spp, strategy)
         assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
         assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+
+
+def ellipsoid_irradiance(x, z, centre, axes, radiance, k=512):
+    """Irradiance at the floor points (x, 0, z) (normal +Y) from an ellipsoid centre + axes n (n unit) of
+    uniform radiance, by Lambert's polygon formula over its silhouette: the points where the ellipsoid's
+    tangent plane holds the receiver - in the unit sphere's frame (q = axes^-1 (p - centre)) the circle
+    n . q = 1, of centre q / |q|^2 and radius sqrt(1 - 1 / |q|^2), mapped back by the axes (k vertices)."""
+    p = np.stack([x.ravel(), np.zeros(x.size), z.ravel()], 1)
+    q = np.linalg.solve(axes, (p - centre).T).T
+    s = (q * q).sum(1)
+    e = np.where(np.abs(q[:, :1]) < 0.9, [[1.0, 0.0, 0.0]], [[0.0, 1.0, 0.0]])
+    u = np.cross(q, e)
+    u /= np.linalg.norm(u, axis=1, keepdims=True)
+    v = np.cross(q / np.sqrt(s)[:, None], u)
+    t = 2 * np.pi * np.arange(k) / k
+    circle = (q / s[:, None])[:, None] + np.sqrt(1 - 1 / s)[:, None, None] * (
+        np.cos(t)[None, :, None] * u[:, None] + np.sin(t)[None, :, None] * v[:, None])
+    r = circle @ axes.T + centre - p[:, None]                                     # (points, k, 3)
+    a, b = r, np.roll(r, -1, axis=1)
+    cr = np.cross(a, b)
+    ang = np.arccos(np.clip((a * b).sum(-1) / np.linalg.norm(a, axis=-1) / np.linalg.norm(b, axis=-1), -1, 1))
+    E = (ang * cr[..., 1] / np.linalg.norm(cr, axis=-1)).sum(1)
+    return (radiance * np.abs(E) / 2).reshape(x.shape)
+
+
+def test_an_emissive_ellipsoid_lights_the_floor_as_lamberts_formula_says():
+    """A black emissive sphere placed by a rotation and a non-uniform scale (an ellipsoid light, drawn
+    uniformly in its unit sphere with the density of its area element) lights the Lambert floor with the
+    irradiance of its silhouette (Lambert's formula): light sampling alone, BSDF sampling alone and MIS;
+    MIS with less error than BSDF sampling alone at equal samples."""
+    le, c = 3.0, np.array([0.3, 0.9, -0.2])
+    t = np.radians(30.0)
+    rot = np.array([[np.cos(t), 0.0, np.sin(t)], [0.0, 1.0, 0.0], [-np.sin(t), 0.0, np.cos(t)]])
+    m = np.eye(4)
+    m[:3, :3] = rot @ np.diag([0.6, 0.25, 0.3])                               # semi-axes of the unit sphere
+    m[:3, 3] = c
+    egg = D.Sphere(path='/egg', radius=1.0, matrix=m, material=1)
+    desc = scene([D.Container('/', meshes=[quad(40.0)], spheres=[egg])], [FLOOR, glow(le)], [],
+                 ortho_down(width=WIDTH), width=N, height=N)
+    ref = ti.pixel_average(lambda x, z: 0.5 / np.pi * ellipsoid_irradiance(x, z, c, m[:3, :3], le), N, WIDTH, sub=4)
+    X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
+    extent = np.sqrt((m[:3, :3] ** 2).sum(1)) + WIDTH / N                    # the ellipsoid's box, a pixel more
+    keep = (np.abs(X - c[0]) > extent[0]) | (np.abs(Z - c[2]) > extent[2])  # the camera sees the floor
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(desc, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
+            for s in ('mis', 'bsdf')}
+    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+
+
+@pytest.mark.parametrize('opacity', [0.5, 0.2])
+def test_a_see_through_emissive_quad_lights_the_floor_with_its_opacity_times_its_emission(opacity):
+    """An emissive UsdPreviewSurface quad of opacity a (found by rays with probability a; reflecting
+    nothing: no diffuse, a specular workflow of colour 0) lights the floor like a rect light of a times its
+    emission (Lambert's polygon formula), by light sampling alone, BSDF sampling alone and MIS; MIS with
+    less error than BSDF sampling alone."""
+    veil = D.Material('/veil', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), use_specular_workflow=True,
+                      emission=(LR,) * 3, opacity=opacity)
+    desc = scene([D.Container('/', meshes=[quad(40.0), emitter()])], [FLOOR, veil], [], ortho_down(width=WIDTH),
+                 width=N, height=N)
+    ref = opacity * polygon_reference()
+    keep = _beside()
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(desc, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
+            for s in ('mis', 'bsdf')}
+    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse

@@ -1,7 +1,8 @@
 """Emissive surfaces as lights of the path integrator (host/surface_lights.py): a mesh with UsdLux
 MeshLightAPI emits; one light per static placement of an emissive mesh or sphere (PointInstancer
-instances included), with its area, triangle CDF and the map from a hit to its light; ellipsoids, moving
-placements and see-through materials are no lights."""
+instances included), with its area, triangle CDF and the map from a hit to its light; a sphere placed by
+a matrix that is no similarity is an ellipsoid light, sampled with the density of its area element; a
+see-through material is a light of its average emission; moving placements are no lights."""
 from contextlib import contextmanager
 
 import numpy as np
@@ -12,7 +13,8 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.kernel.light_tree import SPLIT_BELOW, light_pmf
-from rtc.renderer.kernel.tables import SLF_AREA, SLF_CENTER, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_FIRST
+from rtc.renderer.kernel.tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT,
+                                        SLI_ELLIPSOID, SLI_FIRST, SURFACE_LIGHT_F)
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import look_at, quad, scene, translate
 
@@ -126,7 +128,7 @@ def test_surface_light_tables():
         assert pm[1] == 1.0 and 0.0 < pm[0] <= SPLIT_BELOW
 
 
-def test_emissive_spheres_are_lights_with_their_placement_scale_and_ellipsoids_are_not():
+def test_emissive_spheres_and_ellipsoids_are_lights_with_their_placement():
     glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
     ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=1)
     egg = D.Sphere(path='/egg', radius=0.5, matrix=translate(0, 3, 0) @ np.diag([1.0, 2.0, 1.0, 1.0]), material=1)
@@ -137,26 +139,78 @@ def test_emissive_spheres_are_lights_with_their_placement_scale_and_ellipsoids_a
                  [D.Material('/floor'), glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=D.Instances(container=np.array([0, 1], np.int32), matrices=np.array([np.eye(4), m])[:, None],
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
+    origin = desc.camera.matrix[:3, 3]
     with _path_lights(desc) as (built, L):
-        assert L.n_surface == 1 and L.sl_i[0, SLI_COUNT] == 0                 # the ball, not the egg
-        assert L.sl_f[0, SLF_RADIUS] == pytest.approx(1.0) and L.sl_f[0, SLF_AREA] == pytest.approx(4 * np.pi)
-        np.testing.assert_allclose(L.sl_f[0, SLF_CENTER:SLF_CENTER + 3] + desc.camera.matrix[:3, 3], (1.0, 2.0, 0.0),
-                                   atol=1e-9)
+        assert L.n_surface == 2 and np.all(L.sl_i[:2, SLI_COUNT] == 0) and np.all(L.depth[:2] >= 0)
+        b, e = (0, 1) if L.sl_i[0, SLI_ELLIPSOID] == 0 else (1, 0)
+        assert L.sl_i[b, SLI_ELLIPSOID] == 0 and L.sl_i[e, SLI_ELLIPSOID] == 1
+        assert L.sl_f[b, SLF_RADIUS] == pytest.approx(1.0) and L.sl_f[b, SLF_AREA] == pytest.approx(4 * np.pi)
+        np.testing.assert_allclose(L.sl_f[b, SLF_CENTER:SLF_CENTER + 3] + origin, (1.0, 2.0, 0.0), atol=1e-9)
+        # the egg: semi-axes 0.5 x (1, 2, 1) x the placement's 2, centred at 2 (0, 3, 0) + (1, 0, 0)
+        np.testing.assert_allclose(L.sl_f[e, SLF_CENTER:SLF_CENTER + 3] + origin, (1.0, 6.0, 0.0), atol=1e-9)
+        np.testing.assert_allclose(L.sl_f[e, SLF_AXES:SLF_AXES + 9], np.diag([1.0, 2.0, 1.0]).ravel(), atol=1e-12)
+        np.testing.assert_allclose(L.sl_f[e, SLF_INV:SLF_INV + 9], np.diag([1.0, 0.5, 1.0]).ravel(), atol=1e-12)
+        assert L.sl_f[e, SLF_AREA] == pytest.approx(4 * np.pi * 2.0)        # 4 pi |det A|
 
 
-def test_moving_placements_and_see_through_materials_are_no_lights():
+def _spheroid_area(a, c):
+    """Surface area of the spheroid of equatorial semi-axis a and polar semi-axis c (closed forms)."""
+    if c > a:
+        e = np.sqrt(1 - a * a / (c * c))
+        return 2 * np.pi * a * a * (1 + c / (a * e) * np.arcsin(e))
+    e = np.sqrt(1 - c * c / (a * a))
+    return 2 * np.pi * a * a + np.pi * c * c / e * np.log((1 + e) / (1 - e))
+
+
+@pytest.mark.parametrize('a, c', [(1.0, 2.0), (2.0, 0.5)])
+def test_ellipsoid_light_samples_have_the_density_of_their_area(a, c):
+    """Points of an ellipsoid light drawn uniformly in n (centre + A n), each with 1 / its density per unit
+    area: their mean is the ellipsoid's area (the closed forms of a prolate and an oblate spheroid, turned
+    by a rotation so that A is no diagonal), and a hit at a drawn point gets the density it was drawn with
+    (the MIS weight of a BSDF-sampled ray that finds it)."""
+    from collections import namedtuple
+    from rtc.renderer.kernel.surface_lights import _ellipsoid_area_at, _ellipsoid_point
+    t = np.radians(35.0)
+    rot = np.array([[np.cos(t), -np.sin(t), 0.0], [np.sin(t), np.cos(t), 0.0], [0.0, 0.0, 1.0]])
+    A = rot @ np.diag([a, c, a])
+    f = np.zeros((1, SURFACE_LIGHT_F.width))
+    SURFACE_LIGHT_F.write(f[0], AREA=4 * np.pi * abs(np.linalg.det(A)), CENTER=(0.3, -1.0, 2.0), AXES=A.ravel(),
+                          INV=np.linalg.inv(A).ravel())
+    L = namedtuple('L', ['sl_f'])(f)
+    n = 400
+    g = (np.arange(n) + 0.5) / n                                          # a midpoint grid in (u1, u2)
+    inv_density = []
+    for u1 in g:
+        for u2 in g[::8]:
+            q, nrm, area = _ellipsoid_point(L, 0, u1, u2)
+            local = np.linalg.solve(A, np.array(q) - f[0, SLF_CENTER:SLF_CENTER + 3])
+            assert np.linalg.norm(local) == pytest.approx(1.0, abs=1e-12)           # on the ellipsoid
+            grad = np.linalg.solve(A.T, local)                                      # normal: A^-T n
+            np.testing.assert_allclose(nrm, grad / np.linalg.norm(grad), atol=1e-12)
+            assert _ellipsoid_area_at(L, 0, q) == pytest.approx(area, rel=1e-9)
+            inv_density.append(area)
+    assert np.mean(inv_density) == pytest.approx(_spheroid_area(a, c), rel=2e-4)
+
+
+def test_moving_placements_are_no_lights_and_see_through_materials_are_lights_of_their_average():
     glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
-    veil = D.Material('/veil', model=D.PREVIEW_SURFACE, emission=(1.0, 1.0, 1.0), opacity=0.5)
+    veil = D.Material('/veil', model=D.PREVIEW_SURFACE, emission=(1.0, 2.0, 4.0), opacity=0.25)
+    gone = D.Material('/gone', model=D.PREVIEW_SURFACE, emission=(1.0, 2.0, 4.0), opacity=0.0)
     ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=2)
-    desc = scene([D.Container('/', meshes=[quad(4.0, material=2)], spheres=[ball]),
+    desc = scene([D.Container('/', meshes=[quad(4.0, material=2), quad(1.0, y=3.0, material=3)], spheres=[ball]),
                   D.Container('/moving', meshes=[quad(1.0, y=2.0, material=1)])],
-                 [D.Material('/floor'), glow, veil], [],
+                 [D.Material('/floor'), glow, veil, gone], [],
                  D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=D.Instances(container=np.array([0, 1], np.int32),
                                        matrices=np.array([[np.eye(4), np.eye(4)], [np.eye(4), translate(1, 0, 0)]]),
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
     with _path_lights(desc) as (built, L):
-        assert L.n_surface == 0 and np.all(L.sl_row == -1)
+        # the see-through quad and ball (opacity 0.25: a quarter of their emission), not the quad that is
+        # never there (opacity 0), not the moving placement
+        assert L.n_surface == 2
+        np.testing.assert_allclose(L.sl_f[:2, SLF_RAD:SLF_RAD + 3], [(0.25, 0.5, 1.0)] * 2)
+        assert sorted(L.sl_i[:2, SLI_COUNT]) == [0, 2]
+        assert L.sl_row[0] >= 0 and L.sl_row[1] == -1
 
 
 def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
