@@ -30,9 +30,14 @@ does find it, its emission gets the MIS weight of a light sample of that point (
 direction only, so both strategies stay unbiased); a shadow ray to a point on it stops short of the point
 and crosses other see-through surfaces, parts of the same light among them, with 1 - a each.
 
-Not lights (their emission is still added where a ray hits them, with weight 1, as before): moving
-placements (a light sample would need the placement at the ray's time), materials whose emission has no
-luminance.
+A moving placement (motion blur) is a light too: its object-space triangles or sphere, drawn as a static
+one's are, are placed at the ray's time by the matrix Embree traced it with (`trace.instance_transform`),
+and the density per unit area is divided by the area scale |cof(M) n| of that matrix at the point (n
+its unit object normal), for light samples and BSDF hits alike.  Its tree bounds hold it over the
+shutter (`_moving_bounds`).
+
+Not lights (their emission is still added where a ray hits them, with weight 1): materials whose
+emission has no luminance.
 """
 from __future__ import annotations
 
@@ -111,9 +116,9 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     xf = data.in_xf[:n_rows]
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
-    groups, balls = [], []              # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
+    groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
     for c in range(len(data.pr_gp_start)):
-        rows = np.flatnonzero((data.in_proto[:n_rows] == c) & static)
+        rows = np.flatnonzero(data.in_proto[:n_rows] == c)
         if not len(rows):
             continue
         own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
@@ -126,6 +131,11 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
             m = xf[rows, 0]
             if sphere:
                 ok &= _invertible(m)
+            moving = ok & ~static[rows]
+            if moving.any():
+                obj = data.sph[data.gp_off[g]] if sphere else data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]]
+                movers.append((rows[moving], slot, np.asarray(obj, np.float64), xf[rows[moving]], emit[moving]))
+            ok &= static[rows]
             if not ok.any():
                 continue
             emit = emit[ok]
@@ -139,7 +149,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     if n_tri > MAX_TRIANGLES and warn is not None:
         warn(f'{n_tri} emissive triangles (placements of emissive meshes) are lights of the path integrator: '
              f'more than {MAX_TRIANGLES}, they cost memory and build time (one world-space copy each)')
-    return _tables(data, groups, balls, first)
+    return _tables(data, groups, balls, first, movers)
 
 
 def _similarity(m: np.ndarray) -> np.ndarray:
@@ -192,7 +202,78 @@ def _ball_rows(balls: list, first: int):
     return sl_f, sl_i, bounds, row_lights
 
 
-def _tables(data, groups: list, balls: list, first: int) -> SurfaceLights:
+def _instance_ids(data, rows: np.ndarray) -> np.ndarray:
+    """(R, 2): the top-level instance (geometry id, index in it) of each placement row."""
+    gids = np.flatnonzero(data.grp_base >= 0)
+    gids = gids[np.argsort(data.grp_base[gids], kind='stable')]
+    gid = gids[np.searchsorted(data.grp_base[gids], rows, side='right') - 1]
+    return np.stack([gid, rows - data.grp_base[gid]], 1)
+
+
+def _moving_bounds(obj: np.ndarray, sphere: bool, xf: np.ndarray, lum: float):
+    """Light-tree bounds of a moving placement (xf: its (K, 3, 4) time steps) of an object-space sphere
+    (centre, radius) or triangles obj: the union of its world boxes and the largest of its phis over the
+    shutter, at 8 times per step interval (exact where Embree lerps the matrices; a rotation it slerps
+    may leave that box a little: the tree's importance is a heuristic, and never zero for these lights,
+    which emit everywhere: no light is missed)."""
+    K = len(xf)
+    t = np.linspace(0.0, K - 1.0, 8 * (K - 1) + 1)
+    k0 = np.minimum(t.astype(int), K - 2)
+    f = (t - k0)[:, None, None]
+    ms = (1.0 - f) * xf[k0] + f * xf[k0 + 1]                                    # (T, 3, 4)
+    if sphere:
+        axes = obj[3] * ms[:, :, :3]
+        centres = ms[:, :, :3] @ obj[:3] + ms[:, :, 3]
+        ext = np.sqrt((axes * axes).sum(2))
+        lo, hi = (centres - ext).min(0), (centres + ext).max(0)
+        s = np.linalg.svd(axes, compute_uv=False)
+        phi = float(np.max(np.pi * s[:, 0] * s[:, 1]))
+    else:
+        world = np.einsum('tij,nvj->tnvi', ms[:, :, :3], obj) + ms[:, None, None, :, 3]
+        lo, hi = world.min(axis=(0, 1, 2)), world.max(axis=(0, 1, 2))
+        cr = np.cross(world[:, :, 1] - world[:, :, 0], world[:, :, 2] - world[:, :, 0])
+        phi = float(np.max(0.5 * np.linalg.norm(cr, axis=2).sum(1)))
+    return lo, hi, phi * lum, ENTIRE, 0.0, True
+
+
+def _mover_rows(data, movers: list, first: int, n_tri: int):
+    """(sl_f rows, sl_i rows, object triangles, their cdfs, bounds, row_lights) of the moving placements'
+    lights, numbered from `first`, their triangles stored from `n_tri` (one object-space copy per gprim,
+    shared by its placements)."""
+    sl_f, sl_i, tris, cdfs, bounds, row_lights = [], [], [], [], [], []
+    for rows, slot, obj, xf, emit in movers:
+        sphere = obj.ndim == 1
+        if sphere:
+            area = 4.0 * np.pi * obj[3] ** 2
+        else:
+            a = 0.5 * np.linalg.norm(np.cross(obj[:, 1] - obj[:, 0], obj[:, 2] - obj[:, 0]), axis=1)
+            area = a.sum()
+            if not area > 0.0:
+                continue
+            cdf = np.cumsum(a) / area
+            cdf[-1] = 1.0
+            tris.append(obj)
+            cdfs.append(cdf)
+        ids = _instance_ids(data, rows)
+        for r in range(len(rows)):
+            f = np.zeros(SURFACE_LIGHT_F.width)
+            i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
+            SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=area)
+            if sphere:
+                SURFACE_LIGHT_F.write(f, CENTER=obj[:3], RADIUS=obj[3])
+            else:
+                SURFACE_LIGHT_I.write(i, FIRST=n_tri, COUNT=len(obj))
+            SURFACE_LIGHT_I.write(i, MOVING=1, INST=ids[r, 0], INST_PRIM=ids[r, 1])
+            sl_f.append(f)
+            sl_i.append(i)
+            bounds.append(_moving_bounds(obj, sphere, xf[r], float(emit[r] @ _LUM)))
+        row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
+        if not sphere:
+            n_tri += len(obj)
+    return sl_f, sl_i, tris, cdfs, bounds, row_lights
+
+
+def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLights:
     sl_f, sl_i, tris, cdfs, bounds = [], [], [], [], []
     row_lights = []                               # (rows, slot, light numbers)
     n_light = n_tri = 0
@@ -221,10 +302,14 @@ def _tables(data, groups: list, balls: list, first: int) -> SurfaceLights:
         n_light += R
         n_tri += R * n
     f, i, b, rl = _ball_rows(balls, first + n_light)
+    f2, i2, t2, c2, b2, rl2 = _mover_rows(data, movers, first + n_light + len(b), n_tri)
+    f, i = f + f2, i + i2
+    tris += t2
+    cdfs += c2
     sl_f += [np.array(f).reshape(-1, SURFACE_LIGHT_F.width)] if f else []
     sl_i += [np.array(i, np.int64).reshape(-1, SURFACE_LIGHT_I.width)] if i else []
-    bounds += b
-    row_lights += rl
+    bounds += b + b2
+    row_lights += rl + rl2
     return SurfaceLights(
         sl_f=np.concatenate(sl_f) if sl_f else np.zeros((1, SURFACE_LIGHT_F.width)),
         sl_i=np.concatenate(sl_i) if sl_i else np.zeros((1, SURFACE_LIGHT_I.width), np.int64),

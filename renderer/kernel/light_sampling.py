@@ -11,8 +11,9 @@ al. 2013, pdf = 1 / S; by area when S is tiny or nearly 2 pi), disk and the side
 (uniform by area: pdf = d^2 / (cos_l A)),
 sphere (uniform in the cone it subtends, exact), distant with an angle (uniform in its cone: radiance
 E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
-`host/dome_sampling.py`; cosine-weighted about n when untextured), emissive surfaces (uniform by area
-over their triangles, `surface_lights.py`).  Rects and disks emit from their front (local -Z) only,
+`host/dome_sampling.py`; cosine-weighted about n when untextured).  Emissive surfaces are sampled by
+`surface_lights.sample_surface` (which `path.light_sample` calls for them: a moving one needs the
+ray's time and Embree's matrix at it).  Rects and disks emit from their front (local -Z) only,
 spheres and cylinders outwards (a cylinder from its side, not its caps: points facing away from the
 receiver are drawn and contribute nothing), emissive surfaces from both sides.  Light shapes occlude
 nothing (shadow rays do not meet them: ray masks), and a ray collects the emission of every light
@@ -29,11 +30,9 @@ import math
 import numba as nb
 
 from .. import description as D
-from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS,
-                       F_SURFACE_LIGHTS)
+from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
 from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
-from .surface_lights import sample_surface
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward
@@ -82,8 +81,6 @@ def _cone(w, cos_max, u1, u2):
 @nb.njit(**_JIT)
 def sample_ld(S, L, k, p, n, u1, u2):
     """-> (wi, dist, Le rgb, pdf, delta) for light k seen from p (n: shading normal, for the dome)."""
-    if F_SURFACE_LIGHTS and k >= L.surface_first:
-        return sample_surface(S, L, k, p, u1, u2)
     t = S.li_type[k]
     lf = S.li_f
     Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])

@@ -48,7 +48,7 @@ from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .shapes import hit_gprim
-from .surface_lights import shadow_ray, surface_emission
+from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
@@ -111,7 +111,10 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     k, pk = chosen
     if k < 0:
         return BLACK
-    wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
+    if F_SURFACE_LIGHTS and k >= L.surface_first:
+        wi, dist, Le, pdf, delta = sample_surface(S, L, tr, k, vtx.p, vtx.time, u[0], u[1])
+    else:
+        wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     fc, pb = evaluate(b, vtx.wo, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
@@ -209,14 +212,14 @@ def _n_lights(S, L):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def hit_emission(S, L, tr, sp, d, prev):
-    """Emission of the surface at shading point sp, hit by a ray along d that left `prev`: the lights
+def hit_emission(S, L, tr, sp, d, time, prev):
+    """Emission of the surface at shading point sp, hit by a ray along d at `time` that left `prev`: the lights
     among emissive surfaces MIS-weighted (`surface_lights.surface_emission`), the others (and every
     emissive surface when the scene has no surface light) with weight 1."""
     mf = S.mat_f
     em = (float(mf[sp.mat, MF_EMIT]), float(mf[sp.mat, MF_EMIT + 1]), float(mf[sp.mat, MF_EMIT + 2]))
     if F_SURFACE_LIGHTS and L.n_surface > 0:
-        return surface_emission(S, L, tr.u, em, (sp.p, sp.ng, d), prev)
+        return surface_emission(S, L, tr, em, (sp.p, sp.ng, d, time), prev)
     return em
 
 
@@ -257,7 +260,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
                     continue
                 ul = min(ul / opacity, 0.99999994)
         if F_EMISSION:
-            Lo = _add(Lo, T, hit_emission(S, L, tr, sp, d, prev))
+            Lo = _add(Lo, T, hit_emission(S, L, tr, sp, d, time, prev))
         if depth == max_depth:
             break
         b = vertex_bsdf(S, sp)

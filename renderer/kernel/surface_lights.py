@@ -22,9 +22,11 @@ import numba as nb
 
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
-from .tables import SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST
-from .trace import GEOM_ID, INST_ID, INST_PRIM_ID
-from .vecmath import cross, dot, normalize, offset_origin, sub, toward
+from .features import F_XF_MOTION
+from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST,
+                     SLI_INST, SLI_INST_PRIM, SLI_MOVING)
+from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, instance_transform
+from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, xform_point
 
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
@@ -119,14 +121,58 @@ def _ellipsoid_area_at(L, j, p):
 
 
 @nb.njit(**_JIT)
-def sample_surface(S, L, k, p, u1, u2):
-    """`light_sampling.sample_ld` of surface light k: (wi, dist, Le, pdf, delta = False) seen from p.
+def _placement(L, tr, j, time):
+    """Write the matrix of moving surface light j at the ray time `time` into tr.m (3, 4), Embree's own
+    (interpolated exactly as the light's placement was traced: lerped or slerped)."""
+    instance_transform(tr.scene, L.sl_i[j, SLI_INST], L.sl_i[j, SLI_INST_PRIM], time, tr.m32)
+    for a in range(3):
+        for b in range(4):
+            tr.m[a, b] = tr.m32[4 * a + b]
+
+
+@nb.njit(**_JIT)
+def _moving_point(L, tr, j, time, u1, u2):
+    """(point, unit normal, 1 / density per unit area there) of moving surface light j at `time`: a point
+    of its object-space triangles (by object area) or sphere (uniformly), placed by the matrix M at that
+    time.  An object area element dA becomes |cof(M) n| dA in the world (n its unit normal), so the world
+    density is 1 / (object area x |cof(M) n|) (`_moving_area` at a hit)."""
+    _placement(L, tr, j, time)
+    m = tr.m
+    if L.sl_i[j, SLI_COUNT] == 0:
+        q, n = _sphere_point(L, j, u1, u2)
+        w = cofactor_dir(m, n)
+        return xform_point(m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
+    q, n = _triangle_point(L, j, u1, u2)
+    w = cofactor_dir(m, n)
+    return xform_point(m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
+
+
+@nb.njit(**_JIT)
+def _moving_area(L, tr, j, time, ng):
+    """1 / the world density per unit area of moving surface light j at a hit at `time` whose unit world
+    normal is ng: object area x |cof(M) n| = object area x |det M| / |M^T ng| (n the unit object normal:
+    M^T ng = det(M) n / |cof(M) n|)."""
+    _placement(L, tr, j, time)
+    m = tr.m
+    det = cofactors(m)[1]
+    t = (m[0, 0] * ng[0] + m[1, 0] * ng[1] + m[2, 0] * ng[2], m[0, 1] * ng[0] + m[1, 1] * ng[1] + m[2, 1] * ng[2],
+         m[0, 2] * ng[0] + m[1, 2] * ng[1] + m[2, 2] * ng[2])
+    lt = math.sqrt(dot(t, t))
+    return L.sl_f[j, SLF_AREA] * abs(det) / lt if lt > 0.0 else 0.0
+
+
+@nb.njit(**_JIT)
+def sample_surface(S, L, tr, k, p, time, u1, u2):
+    """The light sample of surface light k, as `light_sampling.sample_ld` gives one: (wi, dist, Le, pdf,
+    delta = False) seen from p at ray time `time`.
     The point p + dist wi is the sampled point moved just off the surface towards p (`offset_origin`):
     the light is real geometry, which the shadow ray (`shadow_ray`) must stop short of; pdf is that of
     the point on the surface."""
     j = k - L.surface_first
     area = L.sl_f[j, SLF_AREA]
-    if L.sl_i[j, SLI_ELLIPSOID] != 0:
+    if F_XF_MOTION and L.sl_i[j, SLI_MOVING] != 0:
+        q, nrm, area = _moving_point(L, tr, j, time, u1, u2)
+    elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
     elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
@@ -172,11 +218,11 @@ def light_of_hit(S, L, u):
 
 
 @nb.njit(**_JIT)
-def surface_emission(S, L, u, Le, hit, prev):
-    """Emission Le of the surface hit (ids `u` of the ray buffer; hit = (its point, its geometric
-    normal, the ray's direction)) MIS-weighted against the light sample that could have drawn it;
-    prev = (p0, n0, bsdf pdf, mode) as in `light_sampling.shape_emission`."""
-    k = light_of_hit(S, L, u)
+def surface_emission(S, L, tr, Le, hit, prev):
+    """Emission Le of the surface hit (ids in the ray buffer tr.u; hit = (its point, its unit geometric
+    normal, the ray's direction, the ray's time)) MIS-weighted against the light sample that could have
+    drawn it; prev = (p0, n0, bsdf pdf, mode) as in `light_sampling.shape_emission`."""
+    k = light_of_hit(S, L, tr.u)
     if k < 0:
         return Le
     p0, n0, pb, mode = prev
@@ -184,13 +230,18 @@ def surface_emission(S, L, u, Le, hit, prev):
         return ZERO
     if mode == 1:
         return Le
-    p, ng, d = hit
+    p, ng, d, time = hit
     v = sub(p, p0)
     cos_l = abs(dot(ng, d))
     if not cos_l > 0.0:
         return Le
     j = k - L.surface_first
-    area = _ellipsoid_area_at(L, j, p) if L.sl_i[j, SLI_ELLIPSOID] != 0 else L.sl_f[j, SLF_AREA]
+    if F_XF_MOTION and L.sl_i[j, SLI_MOVING] != 0:
+        area = _moving_area(L, tr, j, time, ng)
+    elif L.sl_i[j, SLI_ELLIPSOID] != 0:
+        area = _ellipsoid_area_at(L, j, p)
+    else:
+        area = L.sl_f[j, SLF_AREA]
     pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * area)
     w = pb * pb / (pb * pb + pl * pl)
     return w * Le[0], w * Le[1], w * Le[2]

@@ -74,10 +74,12 @@ LIGHT_TREE = Table('T', [('C', 3), ('HALF_DIAG', 1), ('RADIUS', 1), ('PHI', 1), 
 # the path integrator's emissive surfaces as lights (host/surface_lights.py, kernel/surface_lights.py): a
 # light's emitted radiance, total area, a sphere's world centre and radius; an ellipsoid's axes A (3x3,
 # row-major: its points are centre + A n for the unit vectors n) and their inverse, its AREA 4 pi |det A|
-# (float64); its first world triangle and their count, 0 for a sphere or an ellipsoid, and 1 for an
-# ellipsoid (int64)
+# (float64); its first world triangle and their count, 0 for a sphere or an ellipsoid, 1 for an
+# ellipsoid, and for a moving placement 1 and its instance (geometry id, index) in the top-level scene
+# (int64: its triangles, centre, radius and AREA are the object's, placed at a ray's time by Embree's matrix)
 SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1), ('CENTER', 3), ('RADIUS', 1), ('AXES', 9), ('INV', 9)])
-SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1)])
+SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1), ('MOVING', 1), ('INST', 1),
+                                ('INST_PRIM', 1)])
 
 TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE, SURFACE_LIGHT_F, SURFACE_LIGHT_I)
 for _t in TABLES:

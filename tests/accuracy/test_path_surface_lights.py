@@ -190,3 +190,57 @@ def test_a_see_through_emissive_quad_lights_the_floor_with_its_opacity_times_its
     rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
             for s in ('mis', 'bsdf')}
     assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+
+
+def test_a_moving_emissive_quad_lights_the_floor_as_its_shutter_average():
+    """An emissive quad placed by a matrix that moves and grows over the shutter (two motion samples,
+    lerped: its corners move linearly, its area grows 1.8x) lights the floor with the time average of
+    Lambert's polygon formula over its positions, by light sampling alone (each sample placed by Embree's
+    matrix at the path's time, its density divided by that matrix's area scale), BSDF sampling alone and
+    MIS; MIS with less error than BSDF sampling alone."""
+    m1 = translate(0.5, 0.0, 0.0) @ np.diag([1.5, 1.0, 1.2, 1.0])
+    mats = np.stack([np.stack([np.eye(4), np.eye(4)]), np.stack([translate(-0.4, 0.0, 0.0), m1])])
+    inst = D.Instances(container=np.array([0, 1], np.int32), matrices=mats, material_set=np.zeros(2, np.int32),
+                       material_sets=[()])
+    desc = scene([D.Container('/', meshes=[quad(40.0)]), D.Container('/panel', meshes=[emitter(material=1)])],
+                 [FLOOR, glow()], [], ortho_down(width=WIDTH), instances=inst, width=N, height=N)
+    corners = np.array([(-A / 2, H, -B / 2, 1.0), (A / 2, H, -B / 2, 1.0), (A / 2, H, B / 2, 1.0), (-A / 2, H, B / 2, 1.0)])
+    times = (np.arange(48) + 0.5) / 48
+    placed = [((1 - t) * mats[1, 0] + t * mats[1, 1]) @ corners.T for t in times]
+    ref = np.mean([ti.pixel_average(lambda x, z: 0.5 / np.pi * ti.polygon_irradiance(x, z, list(c[:3].T), LR), N, WIDTH,
+                                    sub=2) for c in placed], 0)
+    X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
+    lo = np.min([c[:3].min(1) for c in placed], 0) - WIDTH / N
+    hi = np.max([c[:3].max(1) for c in placed], 0) + WIDTH / N
+    keep = (X < lo[0]) | (X > hi[0]) | (Z < lo[2]) | (Z > hi[2])            # the camera never sees the quad
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(desc, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
+            for s in ('mis', 'bsdf')}
+    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+
+
+def test_a_moving_emissive_sphere_lights_the_floor_as_its_shutter_average():
+    """A black emissive sphere whose placement moves and stretches over the shutter (an ellipsoid at each
+    time) lights the floor with the time average of Lambert's formula over its silhouettes, by light
+    sampling alone, BSDF sampling alone and MIS."""
+    r, le = 0.3, 3.0
+    m1 = translate(0.6, 1.0, -0.2) @ np.diag([1.4, 1.0, 1.0, 1.0])
+    mats = np.stack([np.stack([np.eye(4), np.eye(4)]), np.stack([translate(-0.3, 0.8, -0.2), m1])])
+    inst = D.Instances(container=np.array([0, 1], np.int32), matrices=mats, material_set=np.zeros(2, np.int32),
+                       material_sets=[()])
+    ball = D.Sphere(path='/ball', radius=r, matrix=np.eye(4), material=1)
+    desc = scene([D.Container('/', meshes=[quad(40.0)]), D.Container('/ball', spheres=[ball])],
+                 [FLOOR, glow(le)], [], ortho_down(width=WIDTH), instances=inst, width=N, height=N)
+    times = (np.arange(32) + 0.5) / 32
+    placed = [(1 - t) * mats[1, 0] + t * mats[1, 1] for t in times]
+    ref = np.mean([ti.pixel_average(lambda x, z: 0.5 / np.pi * ellipsoid_irradiance(x, z, m[:3, 3], r * m[:3, :3], le),
+                                    N, WIDTH, sub=2) for m in placed], 0)
+    X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
+    keep = (X < -0.3 - r - WIDTH / N) | (X > 0.6 + 1.4 * r + WIDTH / N) | (np.abs(Z + 0.2) > r + WIDTH / N)
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(desc, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy

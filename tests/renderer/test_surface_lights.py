@@ -2,7 +2,8 @@
 MeshLightAPI emits; one light per static placement of an emissive mesh or sphere (PointInstancer
 instances included), with its area, triangle CDF and the map from a hit to its light; a sphere placed by
 a matrix that is no similarity is an ellipsoid light, sampled with the density of its area element; a
-see-through material is a light of its average emission; moving placements are no lights."""
+see-through material is a light of its average emission; a moving placement is a light placed at a ray's
+time."""
 from contextlib import contextmanager
 
 import numpy as np
@@ -14,7 +15,8 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.kernel.light_tree import SPLIT_BELOW, light_pmf
 from rtc.renderer.kernel.tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT,
-                                        SLI_ELLIPSOID, SLI_FIRST, SURFACE_LIGHT_F)
+                                        SLI_ELLIPSOID, SLI_FIRST, SLI_INST, SLI_INST_PRIM, SLI_MOVING,
+                                        SURFACE_LIGHT_F, T_C)
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import look_at, quad, scene, translate
 
@@ -192,25 +194,40 @@ def test_ellipsoid_light_samples_have_the_density_of_their_area(a, c):
     assert np.mean(inv_density) == pytest.approx(_spheroid_area(a, c), rel=2e-4)
 
 
-def test_moving_placements_are_no_lights_and_see_through_materials_are_lights_of_their_average():
+def test_moving_placements_and_see_through_materials_are_lights():
     glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
     veil = D.Material('/veil', model=D.PREVIEW_SURFACE, emission=(1.0, 2.0, 4.0), opacity=0.25)
     gone = D.Material('/gone', model=D.PREVIEW_SURFACE, emission=(1.0, 2.0, 4.0), opacity=0.0)
     ball = D.Sphere(path='/ball', radius=0.5, matrix=translate(0, 1, 0), material=2)
+    moved = translate(1, 0, 0) @ np.diag([2.0, 1.0, 1.0, 1.0])
     desc = scene([D.Container('/', meshes=[quad(4.0, material=2), quad(1.0, y=3.0, material=3)], spheres=[ball]),
                   D.Container('/moving', meshes=[quad(1.0, y=2.0, material=1)])],
                  [D.Material('/floor'), glow, veil, gone], [],
                  D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=D.Instances(container=np.array([0, 1], np.int32),
-                                       matrices=np.array([[np.eye(4), np.eye(4)], [np.eye(4), translate(1, 0, 0)]]),
+                                       matrices=np.array([[np.eye(4), np.eye(4)], [np.eye(4), moved]]),
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
+    origin = desc.camera.matrix[:3, 3]
     with _path_lights(desc) as (built, L):
         # the see-through quad and ball (opacity 0.25: a quarter of their emission), not the quad that is
-        # never there (opacity 0), not the moving placement
-        assert L.n_surface == 2
-        np.testing.assert_allclose(L.sl_f[:2, SLF_RAD:SLF_RAD + 3], [(0.25, 0.5, 1.0)] * 2)
-        assert sorted(L.sl_i[:2, SLI_COUNT]) == [0, 2]
-        assert L.sl_row[0] >= 0 and L.sl_row[1] == -1
+        # never there (opacity 0); the moving quad
+        assert L.n_surface == 3
+        see = np.flatnonzero(L.sl_i[:3, SLI_MOVING] == 0)
+        np.testing.assert_allclose(L.sl_f[see, SLF_RAD:SLF_RAD + 3], [(0.25, 0.5, 1.0)] * 2)
+        assert sorted(L.sl_i[see, SLI_COUNT]) == [0, 2]
+        mv = int(np.flatnonzero(L.sl_i[:3, SLI_MOVING] == 1)[0])
+        # object-space triangles (the placement is applied at a ray's time), their object area
+        first, count = L.sl_i[mv, SLI_FIRST], L.sl_i[mv, SLI_COUNT]
+        assert count == 2 and L.sl_f[mv, SLF_AREA] == pytest.approx(1.0)
+        off = built.data.gp_off[built.data.pr_gp_start[1]]             # the moving container's quad, as Embree has it
+        np.testing.assert_array_equal(L.sl_tri[first:first + 2], built.data.tri_v[off:off + 2])
+        # its top-level instance: the row of the moving placement
+        row = built.data.grp_base[L.sl_i[mv, SLI_INST]] + L.sl_i[mv, SLI_INST_PRIM]
+        assert built.data.in_proto[row] == 1 and not np.all(built.data.in_xf[row] == built.data.in_xf[row, :1])
+        assert L.sl_idx[L.sl_row[row]] == L.surface_first + mv
+        # its tree bounds hold it over the shutter: x from -0.5 (open) to 1 + 2 (0.5) = 2 (close)
+        leaf = int(np.flatnonzero((L.tree_i[:, 1] == 1) & (L.tree_i[:, 0] == L.surface_first + mv))[0])
+        assert L.tree_f[leaf, T_C] + origin[0] == pytest.approx(0.75)
 
 
 def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
