@@ -266,6 +266,25 @@ def test_the_lights_example_scene_samples_every_kind_of_light():
     assert np.isfinite(img).all() and img.mean() > 0.01
 
 
+def test_the_emitters_example_scene_makes_every_glowing_surface_a_light():
+    """scenes/emitters.usda: the emissive ellipsoid, the see-through pane (opacity 0.5: half its emission)
+    and the cube that moves over the shutter are the three surface lights, all in the tree, beside the
+    DomeLight; no warning; a small path render of it is finite and lit."""
+    from pathlib import Path
+    from rtc.renderer.host.render import RenderOptions, Renderer
+    desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'emitters.usda'))
+    assert [l.type for l in desc.lights] == [D.DOME] and not desc.warnings
+    with _path_lights(desc) as (built, L):
+        assert L.n_surface == 3 and (L.depth[1:4] >= 0).all()
+        kinds = {(int(L.sl_i[j, SLI_ELLIPSOID]), int(L.sl_i[j, SLI_MOVING]), int(L.sl_i[j, SLI_COUNT])): L.sl_f[j, SLF_RAD:SLF_RAD + 3]
+                 for j in range(3)}
+        assert sorted(kinds) == [(0, 0, 2), (0, 1, 12), (1, 0, 0)]         # pane, cube, ellipsoid
+        np.testing.assert_allclose(kinds[(0, 0, 2)], (0.4, 1.2, 1.6), rtol=1e-6)   # 0.5 x (0.8, 2.4, 3.2)
+    with Renderer(desc) as r:
+        img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2)).image
+    assert np.isfinite(img).all() and img.mean() > 0.01
+
+
 @pytest.mark.parametrize('mode, emission, reflects', [
     (None, (8.0, 4.0, 2.0), True),                       # MeshLightAPI's fallback: materialGlowTintsLight
     ('materialGlowTintsLight', (8.0, 4.0, 2.0), True),
