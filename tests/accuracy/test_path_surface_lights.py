@@ -55,6 +55,20 @@ def _render(desc, spp, strategy='mis', seed=0, sampler='sobol'):
                                       sampler=sampler)).image[..., 0].astype(np.float64)
 
 
+def _check_strategies(desc, ref, keep, mis_beats_bsdf=True):
+    """Light sampling alone, BSDF sampling alone and MIS each converge to `ref` on the pixels `keep`
+    (mean within 1 %, RMSE under 3 % of its peak); with `mis_beats_bsdf`, MIS's error at 16 samples is
+    under half of BSDF sampling's."""
+    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
+        img = _render(desc, spp, strategy)
+        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
+        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    if mis_beats_bsdf:
+        rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
+                for s in ('mis', 'bsdf')}
+        assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+
+
 @pytest.mark.parametrize('strategy', ['mis', 'nee', 'bsdf'])
 def test_an_emissive_quad_lights_the_floor_as_a_rect_light(strategy):
     ref = polygon_reference()
@@ -114,11 +128,7 @@ def test_an_emissive_sphere_lights_the_floor_as_a_sphere_light():
                  ortho_down(width=WIDTH), width=N, height=N)
     X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
     keep = (X - c[0]) ** 2 + (Z - c[2]) ** 2 > (r + WIDTH / N) ** 2              # the camera sees the floor
-    ref = _render(bulb, 512)
-    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
-        img = _render(lit, spp, strategy)
-        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
-        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    _check_strategies(lit, _render(bulb, 512), keep, mis_beats_bsdf=False)
 
 
 def ellipsoid_irradiance(x, z, centre, axes, radiance, k=512):
@@ -162,13 +172,7 @@ def test_an_emissive_ellipsoid_lights_the_floor_as_lamberts_formula_says():
     X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
     extent = np.sqrt((m[:3, :3] ** 2).sum(1)) + WIDTH / N                    # the ellipsoid's box, a pixel more
     keep = (np.abs(X - c[0]) > extent[0]) | (np.abs(Z - c[2]) > extent[2])  # the camera sees the floor
-    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
-        img = _render(desc, spp, strategy)
-        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
-        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
-    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
-            for s in ('mis', 'bsdf')}
-    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+    _check_strategies(desc, ref, keep)
 
 
 @pytest.mark.parametrize('opacity', [0.5, 0.2])
@@ -183,13 +187,7 @@ def test_a_see_through_emissive_quad_lights_the_floor_with_its_opacity_times_its
                  width=N, height=N)
     ref = opacity * polygon_reference()
     keep = _beside()
-    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
-        img = _render(desc, spp, strategy)
-        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
-        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
-    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
-            for s in ('mis', 'bsdf')}
-    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+    _check_strategies(desc, ref, keep)
 
 
 def test_a_moving_emissive_quad_lights_the_floor_as_its_shutter_average():
@@ -213,13 +211,7 @@ def test_a_moving_emissive_quad_lights_the_floor_as_its_shutter_average():
     lo = np.min([c[:3].min(1) for c in placed], 0) - WIDTH / N
     hi = np.max([c[:3].max(1) for c in placed], 0) + WIDTH / N
     keep = (X < lo[0]) | (X > hi[0]) | (Z < lo[2]) | (Z > hi[2])            # the camera never sees the quad
-    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
-        img = _render(desc, spp, strategy)
-        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
-        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
-    rmse = {s: np.sqrt(np.mean((_render(desc, 16, s, sampler='independent')[keep] - ref[keep]) ** 2))
-            for s in ('mis', 'bsdf')}
-    assert rmse['mis'] < 0.5 * rmse['bsdf'], rmse
+    _check_strategies(desc, ref, keep)
 
 
 def test_a_moving_emissive_sphere_lights_the_floor_as_its_shutter_average():
@@ -240,7 +232,4 @@ def test_a_moving_emissive_sphere_lights_the_floor_as_its_shutter_average():
                                     N, WIDTH, sub=2) for m in placed], 0)
     X, Z = np.meshgrid(ti.pixel_centers(N, WIDTH), ti.pixel_centers(N, WIDTH))
     keep = (X < -0.3 - r - WIDTH / N) | (X > 0.6 + 1.4 * r + WIDTH / N) | (np.abs(Z + 0.2) > r + WIDTH / N)
-    for strategy, spp in (('mis', 512), ('nee', 512), ('bsdf', 4096)):
-        img = _render(desc, spp, strategy)
-        assert img[keep].mean() == pytest.approx(ref[keep].mean(), rel=0.01), (strategy, img[keep].mean(), ref[keep].mean())
-        assert np.sqrt(np.mean((img[keep] - ref[keep]) ** 2)) < 0.03 * ref.max(), strategy
+    _check_strategies(desc, ref, keep, mis_beats_bsdf=False)
