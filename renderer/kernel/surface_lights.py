@@ -8,10 +8,13 @@ ellipsoid (centre + A n, n on the unit sphere) is sampled uniformly in n: its de
 point of n is 1 / (4 pi |det A| |A^-T n|), the inverse of the map's area element, so A above is replaced
 by that point's 4 pi |det A| |A^-T n| (`_ellipsoid_area`), for a light sample and for a hit alike.  Both
 sides emit (|cos_l|; the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
-the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: a
-moving placement) keeps weight 1, as before surfaces were lights.  A see-through surface (opacity a) is a
-light of a times its emission, found by rays with probability a: its emission where one finds it is
-MIS-weighted like any other (`host/surface_lights.py`).
+the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: emission
+without luminance) keeps weight 1.  A see-through surface (opacity a) is a light of a times its emission,
+found by rays with probability a: its emission where one finds it is MIS-weighted like any other
+(`host/surface_lights.py`).  A moving placement keeps its object-space triangles or sphere and is placed at
+the ray's time by the matrix Embree traced it with (`_placement`): an object area element dA is
+|cof(M) n| dA in the world, so A above becomes the object area times that scale (`_moving_point`,
+`_moving_area`).
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -20,9 +23,9 @@ import math
 
 import numba as nb
 
+from .features import F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
-from .features import F_XF_MOTION
 from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST,
                      SLI_INST, SLI_INST_PRIM, SLI_MOVING)
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, instance_transform
