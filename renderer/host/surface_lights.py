@@ -1,7 +1,8 @@
-"""Emissive surfaces as lights of the path integrator: every static placement of a mesh or sphere gprim
-whose resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI,
-which the stage reader turns into that material's emission) is one light of the light tree, sampled
-uniformly by area over its world-space triangles or its world-space sphere.
+"""Emissive surfaces as lights of the path integrator: every placement of a mesh or sphere gprim whose
+resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI, which the
+stage reader turns into that material's emission) is one light of the light tree; a static one is sampled
+uniformly by area over its world-space triangles or its world-space sphere (ellipsoids and moving
+placements below).
 
 Sidedness: an emissive surface emits the same radiance from both of its sides (as Storm, Cycles and
 today's emission at a hit do; the renderer shades every gprim on both sides).  Light samples use
