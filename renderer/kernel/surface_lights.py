@@ -140,14 +140,12 @@ def _moving_point(L, tr, j, time, u1, u2):
     time.  An object area element dA becomes |cof(M) n| dA in the world (n its unit normal), so the world
     density is 1 / (object area x |cof(M) n|) (`_moving_area` at a hit)."""
     _placement(L, tr, j, time)
-    m = tr.m
     if L.sl_i[j, SLI_COUNT] == 0:
         q, n = _sphere_point(L, j, u1, u2)
-        w = cofactor_dir(m, n)
-        return xform_point(m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
-    q, n = _triangle_point(L, j, u1, u2)
-    w = cofactor_dir(m, n)
-    return xform_point(m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
+    else:
+        q, n = _triangle_point(L, j, u1, u2)
+    w = cofactor_dir(tr.m, n)
+    return xform_point(tr.m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
 
 
 @nb.njit(**_JIT)
