@@ -7,12 +7,14 @@ motion blur) are documented and verified in ``/work/shared/embree.md``.
 Structure of a renderer scene
 -----------------------------
 * one **prototype scene** (one BVH) per container: ``Device.prototype_scene(meshes, spheres)``;
-  each mesh / sphere set is one geometry, geomIDs in list order, meshes first (then the round linear
-  curves of the path integrator's cylinder lights, `light_selection.shape_scene`).
+  each mesh / sphere set is one geometry, geomIDs in list order, meshes first (then round linear
+  curves: the path integrator's cylinder lights, `light_selection.shape_geometry`).
 * one **top scene** of instances: ``Device.top_scene(prototypes, groups)``; each
   ``InstanceGroup`` becomes one ``RTC_GEOMETRY_TYPE_INSTANCE_ARRAY`` whose geomID is the group's
   position in ``groups``.  A hit therefore reads: ``instID`` = group, ``instPrimID`` = row of the
-  group, ``geomID``/``primID`` = geometry / primitive inside the prototype scene.
+  group, ``geomID``/``primID`` = geometry / primitive inside the prototype scene.  A top scene may
+  also hold geometry of its own (``direct``: placed once, no instance around it); a hit on that
+  reads ``instID`` = RTC_INVALID_GEOMETRY_ID and ``geomID`` = its id in the top scene.
   Embree in this build supports one instance level only: nesting must be flattened by the caller.
 
 Ownership: every ``Device``/``Scene`` object owns one Embree reference and releases it in
@@ -262,29 +264,37 @@ class Device:
         spheres p - c; u, v are the barycentric weights of v1, v2.
         """
         def build(scene):
-            for geom_id, (vertices, triangles) in enumerate(meshes):
-                vertices = _as_rows(vertices, 3, "mesh vertices")
-                triangles = _as_rows(triangles, 3, "mesh triangles")
-                if triangles.size and (triangles.min() < 0 or triangles.max() >= len(vertices)):
-                    raise ValueError(f"mesh {geom_id}: triangle index outside [0, {len(vertices)})")
-                self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_TRIANGLE, [
-                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, np.float32, vertices),
-                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, np.uint32, triangles)])
-            for i, centers_radii in enumerate(spheres):
-                self._attach(scene, len(meshes) + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
-                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
-                     _as_rows(centers_radii, 4, "sphere centers_radii"))])
-            for i, segments in enumerate(curves):
-                segments = np.asarray(segments, np.float32).reshape(-1, 2, 4)
-                self._attach(scene, len(meshes) + len(spheres) + i, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, [
-                    (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
-                    (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32,
-                     2 * np.arange(len(segments), dtype=np.uint32))])
+            self._attach_shapes(scene, 0, meshes, spheres, curves)
             return ()
         return self._build_scene(build, robust, "prototype scene")
 
+    def _attach_shapes(self, scene, first_id: int, meshes, spheres, curves=(), mask: int | None = None) -> None:
+        """Attach meshes, spheres and curves (as `prototype_scene` describes them) to `scene` as geomIDs
+        first_id, first_id + 1, ... in that order."""
+        for k, (vertices, triangles) in enumerate(meshes):
+            vertices = _as_rows(vertices, 3, "mesh vertices")
+            triangles = _as_rows(triangles, 3, "mesh triangles")
+            if triangles.size and (triangles.min() < 0 or triangles.max() >= len(vertices)):
+                raise ValueError(f"mesh {k}: triangle index outside [0, {len(vertices)})")
+            self._attach(scene, first_id + k, RTC_GEOMETRY_TYPE_TRIANGLE, [
+                (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, np.float32, vertices),
+                (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, np.uint32, triangles)], mask=mask)
+        first_id += len(meshes)
+        for i, centers_radii in enumerate(spheres):
+            self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
+                (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
+                 _as_rows(centers_radii, 4, "sphere centers_radii"))], mask=mask)
+        first_id += len(spheres)
+        for i, segments in enumerate(curves):
+            segments = np.asarray(segments, np.float32).reshape(-1, 2, 4)
+            self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, [
+                (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
+                (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32,
+                 2 * np.arange(len(segments), dtype=np.uint32))], mask=mask)
+
     def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,
-                  quaternion_motion: bool | None = None, masks: list[int] | None = None) -> Scene:
+                  quaternion_motion: bool | None = None, masks: list[int] | None = None,
+                  direct: list[tuple] = ()) -> Scene:
         """The top-level scene: one INSTANCE_ARRAY geometry per group, geomID = group index.
 
         Every group instances the whole ``prototypes`` list through an index buffer
@@ -295,6 +305,10 @@ class Device:
         shutter; True/False = for all / no moving groups.  Static groups always use plain matrices.
         masks: a ray mask per group (a ray meets a group iff ray mask & group mask != 0); None: Embree's
         default, every ray meets every group.
+        direct: [(first geomID, ray mask or None, meshes, spheres, curves)]: geometry as `prototype_scene`
+        takes it, already placed (camera-relative world space), attached to the top level itself as
+        geomIDs first, first + 1, ... (meshes, then spheres, then curves): geometry placed once needs no
+        instance around it.
         """
         handles = (ctypes.c_void_p * max(len(prototypes), 1))(*[p.handle for p in prototypes])
 
@@ -324,6 +338,8 @@ class Device:
                 self._attach(scene, geom_id, RTC_GEOMETRY_TYPE_INSTANCE_ARRAY, buffers,
                              instanced=instanced, time_steps=steps,
                              mask=None if masks is None else masks[geom_id])
+            for first, mask, meshes, spheres, curves in direct:
+                self._attach_shapes(scene, first, meshes, spheres, curves, mask=mask)
             return tuple(range(len(groups)))
         return self._build_scene(build, robust, "top scene")
 

@@ -1,9 +1,9 @@
 """The lights as the path integrator samples them: one light per shading point, chosen from the
 light tree (`light_tree.py`: by power, distance and orientation, in O(log n)), so the cost of a sample
 grows only with the logarithm of the number of lights and far or turned-away lights are rarely
-chosen; the light shapes that BSDF rays can meet, in an Embree scene of their own (so finding them costs
-O(log n) per ray, found by the same query as the surfaces: `build.top_with_light_shapes`; the cook
-integrator never builds it); the dome's sampling tables.
+chosen; the geometry of the light shapes that BSDF rays can meet (in the path integrator's top level,
+found in O(log n) per ray by the same query as the surfaces: `build.path_top`; the cook integrator
+never builds it); the dome's sampling tables.
 
 The tree's phi of a light (only ratios matter, and any positive choice keeps the estimator unbiased) is
 its largest radiant *intensity*, so that a leaf's importance, phi cos / d^2, is the irradiance the light
@@ -34,7 +34,7 @@ from .surface_lights import surface_lights, surface_lights_none
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
                                        'prim_light', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
-                                       'sl_row', 'sl_idx'])
+                                       'sl_row', 'sl_idx', 'direct_base', 'direct'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -57,9 +57,10 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
     return np.where(np.isfinite(out) & (out > 0), out, 0.0)
 
 
-def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
-    """(Embree scene or None, geom_off, prim_light) of the light shapes, for BSDF rays to find them in
-    O(log n): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
+def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
+    """((meshes, spheres, curves) as `embree.Device.prototype_scene` takes them, or None; geom_off,
+    prim_light) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top` puts them in
+    the path integrator's top level): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
     test `light_sampling.hit_shape` rejects the corners), spheres as sphere points, cylinders as one
     segment of a round linear curve each (a capsule: Embree has no open cylinder; the capsule is
     convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
@@ -99,15 +100,14 @@ def shape_scene(device, desc: D.SceneDescription, li_f: np.ndarray, shapes: list
         curves.append(np.array(segments, np.float32))
         geom_off.append(len(prim_light))
         prim_light += tubes
-    scene = device.prototype_scene(meshes, spheres, curves=curves)
-    return scene, np.array(geom_off, np.int64), np.array(prim_light, np.int64)
+    return (meshes, spheres, curves), np.array(geom_off, np.int64), np.array(prim_light, np.int64)
 
 
-def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, device, light_group: int,
+def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, light_group: int,
                 data=None) -> tuple:
-    """(PathLights record, the light-shape Embree scene or None) of a built scene (li_f: the light
-    table; bounds (2, 3) of the scene; device: its Embree device; light_group: the instance geometry id
-    the light-shape scene will have in the path integrator's top level, `build.top_with_light_shapes`;
+    """(PathLights record, the light shapes' geometry or None: `shape_geometry`) of a built scene (li_f:
+    the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
+    report in the path integrator's top level, `build.path_top`;
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
@@ -120,12 +120,13 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)
                 if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
-    scene, geom_off, prim_light = shape_scene(device, desc, li_f, shapes)
+    geometry, geom_off, prim_light = shape_geometry(desc, li_f, shapes)
     return PathLights(tree_f=tree_f, tree_i=tree_i, trail=trail, depth=depth, unbounded=unbounded, n_bounded=n_bounded,
                       shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
-                      dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if scene else -1,
-                      geom_off=geom_off, prim_light=prim_light, **_surface_fields(desc, surf)), scene
+                      dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if geometry else -1,
+                      geom_off=geom_off, prim_light=prim_light, **_surface_fields(desc, surf),
+                      direct_base=-1, direct=np.zeros((0, 3), np.int64)), geometry
 
 
 def _warner(desc: D.SceneDescription):

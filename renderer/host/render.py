@@ -19,7 +19,7 @@ import numpy as np
 from .. import description as D
 from ..errors import RenderError
 from ..options import RenderOptions, resolve
-from .build import build, top_with_light_shapes
+from .build import build, path_top
 from .features import general_kernels, scene_features
 from ..kernel.cameras import C_LENS, camera_table
 from .film import Film
@@ -99,18 +99,19 @@ class Renderer:
         self._path_top = None
 
     def path_lights(self):
-        """The path integrator's light record (built on its first use: cook renders never build it)."""
+        """The path integrator's light record (built on its first use: cook renders never build it), and
+        its top level (`build.path_top`)."""
         if self._lights is None:
             d = self.built.data
-            self._lights, self._light_scene = path_lights(self.desc, d.li_f, self.built.top.bounds(),
-                                                          self.built.device, len(self.built.top.groups), data=d)
-            if self._light_scene is not None:
-                self._path_top = top_with_light_shapes(self.built, self._light_scene)
+            group = len(self.built.top.groups)
+            lights, shapes = path_lights(self.desc, d.li_f, self.built.top.bounds(), group, data=d)
+            self._path_top, base, direct = path_top(self.built, self.desc.containers, shapes, group)
+            self._lights = lights._replace(direct_base=base, direct=direct)
         return self._lights
 
     def path_scene(self) -> int:
-        """The Embree scene path renders trace: the placements and the light shapes (or the built top
-        level when the scene has no light shape)."""
+        """The Embree scene path renders trace: the placements, the light shapes and the geometry placed
+        once (`build.path_top`; the built top level when it needs none of these)."""
         self.path_lights()
         return self._path_top.handle if self._path_top is not None else self.built.handle
 
@@ -167,11 +168,9 @@ class Renderer:
             self._pool.shutdown()
             self._pool = None
         if getattr(self, '_path_top', None) is not None:
-            self._path_top.close()
+            for scene in [self._path_top] + self._path_top.kept:
+                scene.close()
             self._path_top = None
-        if getattr(self, '_light_scene', None) is not None:
-            self._light_scene.close()
-            self._light_scene = None
         self.built.close()
 
     def __enter__(self):

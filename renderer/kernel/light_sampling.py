@@ -437,7 +437,7 @@ def _hit_cylinder(lf, k, o, d, tmax, p0):
 @nb.njit(**_JIT)
 def shape_emission(S, L, k, ray, te, prev):
     """MIS-weighted radiance of light shape k, which Embree found at distance te along ray = (o, d) (in
-    the path integrator's top level: `host/build.top_with_light_shapes`); zero unless the exact test
+    the path integrator's top level: `host/build.path_top`); zero unless the exact test
     `hit_shape` agrees (the emitting side, inside the disk, this crossing of a sphere: its far side is
     a second hit of the same point; a cylinder's side, not the capsule's round caps).  prev = (p0, n0,
     bsdf pdf, mis mode): the vertex the ray left, its normal, the pdf with which its BSDF drew d, and

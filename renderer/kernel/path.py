@@ -52,8 +52,8 @@ from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
-from .trace import (GEOM_ID, INST_ID, PACKET, PRIM_ID, TFAR, hit_of, intersect1, intersect1_surfaces, intersect16,
-                    lane_hit, occluded1_surfaces)
+from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, hit_of, intersect1,
+                    intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -126,15 +126,27 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     ws = wi
     if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
         ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
-    vis = shadow_transmittance(S, tr, vtx.po, ws, smax, vtx.time)
+    vis = shadow_transmittance(S, L, tr, vtx.po, ws, smax, vtx.time)
     if vis == 0.0:
         return BLACK
     s = vis * w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
 
 
+@nb.njit(**SHADING_INLINE_JIT)
+def placed_hit(L, u):
+    """Give a hit on geometry placed in the top level itself (`host/build.path_top`: placed once), which
+    Embree reports without an instance, the instance ids of its placement and its geometry id in the
+    prototype, as every other hit has them (`shapes.hit_gprim` reads them)."""
+    if u[INST_ID] == INVALID and u[GEOM_ID] != INVALID and L.direct.shape[0] > 0:
+        k = np.int64(u[GEOM_ID]) - L.direct_base
+        u[INST_ID] = L.direct[k, 0]
+        u[INST_PRIM_ID] = L.direct[k, 1]
+        u[GEOM_ID] = L.direct[k, 2]
+
+
 @nb.njit(**STAGE_JIT)
-def shadow_transmittance(S, tr, o, d, smax, time):
+def shadow_transmittance(S, L, tr, o, d, smax, time):
     """The fraction of light that crosses the shadow ray (o, d) up to smax: 0 behind an opaque
     surface, 1 when nothing is in the way, and across partly transparent UsdPreviewSurfaces (opacity
     a < 1, which camera and BSDF rays find with probability a: `trace_path`) the product of their
@@ -148,6 +160,7 @@ def shadow_transmittance(S, tr, o, d, smax, time):
     for _ in range(PASS_THROUGH_MAX + 1):
         if not intersect1_surfaces(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
             return vis
+        placed_hit(L, tr.u)
         mat = hit_gprim(S, hit_of(tr.f, tr.u))[2]
         a = float(S.mat_f[mat, MF_OPACITY])
         if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE or a >= 1.0:
@@ -186,6 +199,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
         record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, 0.0, np.inf, path.time)
         hit = intersect1(tr.scene, tr.f, tr.u, o, d, 0.0, np.inf, path.time)
         tr.counts[RAYS_SECONDARY] += 1
+    placed_hit(L, tr.u)
     e = BLACK
     if F_LIGHT_SHAPES:
         for _ in range(2 * L.prim_light.shape[0] + 1):          # a sphere is met twice
@@ -199,6 +213,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
             record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, tn, np.inf, path.time)
             hit = intersect1(tr.scene, tr.f, tr.u, o, d, tn, np.inf, path.time)
             tr.counts[RAYS_SECONDARY] += 1
+            placed_hit(L, tr.u)
     return hit, (float(tr.f[TFAR]) if hit else np.inf), e
 
 

@@ -85,7 +85,7 @@ PACKET_FLOATS = 21 * PACKET   # RTCRayHit16: 21 fields x 16 lanes = 1344 B (Embr
 # RTC_FORMAT_FLOAT3X4_ROW_MAJOR, checked equal by tests/renderer/test_embree.py)
 INVALID = 0xFFFFFFFF
 _ALL_MASK = 0xFFFFFFFF
-# ray masks of the path integrator's top level (host/build.py `top_with_light_shapes`): a ray meets a
+# ray masks of the path integrator's top level (host/build.py `path_top`): a ray meets a
 # geometry iff ray mask & geometry mask != 0; camera and BSDF rays meet everything, shadow rays only
 # surfaces (light shapes occlude nothing)
 MASK_SURFACES, MASK_LIGHT_SHAPES = 1, 2

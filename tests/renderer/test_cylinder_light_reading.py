@@ -59,8 +59,8 @@ def test_cylinder_light_with_unequal_y_and_z_scales_is_warned():
 
 def _path_lights(desc):
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
-    return built, L, shapes
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+    return built, L
 
 
 def _scene(meshes, materials, instances=None, lights=()):
@@ -72,7 +72,7 @@ def test_the_light_tree_bounds_a_cylinder_by_its_box():
     m = translate(1.0, 2.0, 3.0)
     light = D.Light(path='/c', type=D.CYLINDER, matrix=m, radiance=(1.0,) * 3, radius=0.5, length=4.0)
     desc = _scene([quad(10.0)], [D.Material('/m')], lights=[light])
-    built, L, shapes = _path_lights(desc)
+    built, L = _path_lights(desc)
     try:
         assert L.depth[0] == 0 and L.n_bounded == 1 and list(L.shapes) == [0]
         origin = desc.camera.matrix[:3, 3]
@@ -82,6 +82,4 @@ def test_the_light_tree_bounds_a_cylinder_by_its_box():
             n = (np.array([1.0, 2.0, 3.0]) - p) / np.linalg.norm(np.array([1.0, 2.0, 3.0]) - p)
             assert light_pmf(L, tuple(np.array(p) - origin), tuple(n), 0) == 1.0
     finally:
-        if shapes is not None:
-            shapes.close()
         built.close()

@@ -41,10 +41,8 @@ def _lights_scene():
 def lights():
     desc = _lights_scene()
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     yield L
-    if shapes is not None:
-        shapes.close()
     built.close()
 
 
@@ -84,7 +82,7 @@ def test_a_dominant_light_is_sampled_at_every_vertex():
                  [_rect((0.0, 6.0, 0.0), (0, -1, 0), 3.0, 20.0)] + faint,
                  D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:
         for x, z in ((0.0, 0.0), (-5.0, 3.0), (4.0, 4.0)):
             p = (x, -3.0, z - 8.0)                    # floor points, relative to the camera
@@ -95,8 +93,6 @@ def test_a_dominant_light_is_sampled_at_every_vertex():
             mains = {choose_lights(L, p, (0.0, 1.0, 0.0), (i + 0.5) / draws)[0] for i in range(draws)}
             assert mains == {(0, 1.0)}                # the dominant light, at every draw
     finally:
-        if shapes is not None:
-            shapes.close()
         built.close()
 
 
@@ -114,7 +110,7 @@ def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
     desc = scene([D.Container('/', meshes=[quad(4.0, y=-50.0)])], [D.Material('/m')], lights,
                  D.Camera(path='/cam', matrix=look_at((3.5, 0.0, 1000.0), (3.5, 0.0, 0.0))))
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:
         p, n = (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)      # at the camera, facing the lights
         tf, ti = L.tree_f, L.tree_i
@@ -136,8 +132,6 @@ def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
                     taken += k == 1
         assert taken / draws == pytest.approx(pmf[1], abs=3.0 / draws)
     finally:
-        if shapes is not None:
-            shapes.close()
         built.close()
 
 
@@ -150,7 +144,7 @@ def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
                  [_rect((0.0, 2.0, 0.0), (0.0, -1.0, 0.0), 1.0, 5.0), _rect((0.0, 2.0, 3.0), (0.0, -1.0, 0.0), 1.0, 5.0)],
                  D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
     built = build(desc)
-    L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups))
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:                                              # points relative to the camera, as the kernels see them
         above = (0.0, 5.0 - 3.0, -8.0)                # above both rects: their backs face it
         assert light_pmf(L, above, (0.0, 1.0, 0.0), 0) == 0.0 and light_pmf(L, above, (0.0, 1.0, 0.0), 1) == 0.0
@@ -158,7 +152,6 @@ def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
         below = (0.0, -3.0, -8.0)                     # under the first rect, 3 from the second
         assert light_pmf(L, below, (0.0, 1.0, 0.0), 0) > light_pmf(L, below, (0.0, 1.0, 0.0), 1) > 0.0
     finally:
-        shapes.close()
         built.close()
 
 

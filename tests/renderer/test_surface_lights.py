@@ -64,16 +64,12 @@ def _emissive_material(stage, path, colour=(1.0, 2.0, 3.0)):
 
 @contextmanager
 def _path_lights(desc):
-    """(built scene, PathLights) of desc, closed (with the light-shape scene) on leaving."""
+    """(built scene, PathLights) of desc, closed on leaving."""
     built = build(desc)
-    shapes = None
     try:
-        L, shapes = path_lights(desc, built.data.li_f, built.top.bounds(), built.device, len(built.top.groups),
-                                data=built.data)
+        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
         yield built, L
     finally:
-        if shapes is not None:
-            shapes.close()
         built.close()
 
 

@@ -1,0 +1,169 @@
+"""The path integrator's top level (`host/build.path_top`): geometry placed once and the light shapes sit in
+the top level itself, and a hit on them reads, after `kernel/path.placed_hit`, exactly as the same hit
+in the instanced scene the cook integrator traces (`BuiltScene.top`): same placement row, gprim,
+primitive, distance."""
+import math
+
+import numba
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.render import Renderer
+from rtc.renderer.kernel.path import placed_hit
+from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PRIM_ID, TFAR, intersect1,
+                                       intersect1_surfaces, new_ray_buffer)
+from tests.renderer.handmade import look_at, quad, rect_light, scene, translate
+
+
+@numba.njit(cache=False)
+def _trace(scene_handle, L, origins, dirs, fix, out_ids, out_t):
+    """Closest hits of rays (all masks) in `scene_handle`: ids (inst, inst prim, geom, prim) and t;
+    with `fix`, hits on top-level geometry are given their placement's ids by `placed_hit`."""
+    f, u = new_ray_buffer()
+    for r in range(origins.shape[0]):
+        hit = intersect1(scene_handle, f, u, (origins[r, 0], origins[r, 1], origins[r, 2]),
+                         (dirs[r, 0], dirs[r, 1], dirs[r, 2]), 0.0, np.inf, 0.0)
+        if fix:
+            placed_hit(L, u)
+        out_ids[r, 0] = u[INST_ID] if hit else INVALID
+        out_ids[r, 1] = u[INST_PRIM_ID]
+        out_ids[r, 2] = u[GEOM_ID]
+        out_ids[r, 3] = u[PRIM_ID]
+        out_t[r] = f[TFAR] if hit else np.inf
+
+
+def _box(size=1.0, path='/box') -> D.Mesh:
+    h = size / 2
+    pts = np.array([[x, y, z] for x in (-h, h) for y in (0.0, size) for z in (-h, h)], np.float64)
+    quads = [(0, 1, 3, 2), (4, 6, 7, 5), (0, 4, 5, 1), (2, 3, 7, 6), (0, 2, 6, 4), (1, 5, 7, 3)]
+    tris = [t for a, b, c, d in quads for t in ((a, b, c), (a, c, d))]
+    return D.Mesh(path=path, points=pts, triangles=np.array(tris, np.int32), material=0)
+
+
+def _rotation_y(deg, scale=1.0):
+    a = math.radians(deg)
+    m = np.eye(4)
+    m[:3, :3] = scale * np.array([[math.cos(a), 0, math.sin(a)], [0, 1, 0], [-math.sin(a), 0, math.cos(a)]])
+    return m
+
+
+def _scene(once_matrix, box_matrices, moving=False, lights=True):
+    """Container 0 (a floor and a sphere) placed once by `once_matrix`; container 1 (a box) placed at
+    each of `box_matrices` (the first one moving if `moving`); a rect light above (a light shape)."""
+    floor = D.Container('/', meshes=[quad(12.0)],
+                        spheres=[D.Sphere(path='/ball', radius=0.7, matrix=translate(-2.0, 0.7, 1.0), material=0)])
+    boxes = D.Container('/Box', meshes=[_box()])
+    mats = list(box_matrices) + [once_matrix]         # the once-placed row last: its row is no 0
+    k = 2 if moving else 1
+    m = np.repeat(np.asarray(mats, np.float64)[:, None], k, axis=1)
+    if moving:
+        m[0, 1] = m[0, 1] @ translate(0.3, 0.0, 0.0)
+    inst = D.Instances(container=np.array([1] * len(box_matrices) + [0], np.int32), matrices=m,
+                       material_set=np.zeros(len(mats), np.int32), material_sets=[()])
+    lamps = [rect_light((0.0, 4.0, 0.0), 1.5, 1.0, (5.0, 5.0, 5.0))] if lights else []
+    cam = D.Camera(path='/cam', matrix=look_at((0.5, 5.0, 9.0), (0.0, 0.5, 0.0)))
+    return scene([floor, boxes], [D.Material('/m')], lamps, cam, instances=inst)
+
+
+def _rays(n=40):
+    """A fan of rays from the camera over the floor, the ball, the boxes and the light (camera-relative)."""
+    eye = np.array([0.5, 5.0, 9.0])
+    xs, ys = np.meshgrid(np.linspace(-4.5, 4.5, n), np.linspace(-1.0, 4.5, n))
+    lx, lz = np.meshgrid(np.linspace(-0.6, 0.6, 8), np.linspace(-0.4, 0.4, 8))
+    targets = np.concatenate([np.stack([xs.ravel(), ys.ravel(), np.zeros(n * n)], 1),
+                              np.stack([lx.ravel(), np.full(64, 4.0), lz.ravel()], 1)])
+    d = targets - eye
+    return np.zeros((len(d), 3), np.float32), (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+
+
+def _compare(desc):
+    """Trace the same rays in the cook top level and the path top level: -> (cook ids, path ids fixed,
+    path ids raw, cook t, path t, the path top's table)."""
+    with Renderer(desc) as r:
+        L = r.path_lights()
+        o, d = _rays()
+        out = {}
+        for name, handle, fix in (('cook', r.built.handle, False), ('path', r.path_scene(), True),
+                                  ('raw', r.path_scene(), False)):
+            ids, t = np.zeros((len(o), 4), np.uint32), np.zeros(len(o))
+            _trace(handle, L, o, d, fix, ids, t)
+            out[name] = ids, t
+        return out, L, r.built.data
+
+
+def test_geometry_placed_once_is_traced_in_the_top_level_and_reads_as_its_placement():
+    once = translate(0.5, 0.0, -0.5) @ _rotation_y(30.0, 1.25)          # a similarity: its sphere stays one
+    out, L, S = _compare(_scene(once, [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, -2.0) @ _rotation_y(45)]))
+    (cook, tc), (path, tp), (raw, _) = out['cook'], out['path'], out['raw']
+    row0 = int(np.nonzero(S.in_proto == 0)[0][0])
+    assert row0 == 2
+    # the table: the floor and the ball of placement row0, then the rect light's triangles
+    assert L.direct.tolist() == [[0, row0, 0], [0, row0, 1], [L.light_group, 0, 0]]
+    on_floor_or_ball = (cook[:, 0] == 0) & (cook[:, 1] == row0)
+    on_box = (cook[:, 0] == 0) & (cook[:, 1] != row0)
+    assert on_floor_or_ball.sum() > 500 and on_box.sum() > 50 and (cook[:, 2] == 1).sum() > 20
+    # Embree reports no instance for the once-placed geometry, the instance row for the boxes ...
+    assert np.all(raw[on_floor_or_ball, 0] == INVALID) and np.all(raw[on_box, 1] == cook[on_box, 1])
+    # ... and after placed_hit every surface hit reads as in the instanced scene
+    light = path[:, 0] == L.light_group
+    assert light.sum() > 10                                             # cook's top has no light shapes
+    surf = ~light
+    np.testing.assert_array_equal(path[surf], cook[surf])
+    np.testing.assert_allclose(tp[surf], tc[surf], rtol=2e-6)
+    # a light-shape hit: instance light_group, index 0, the shapes' geometry 0 (the rects' triangles)
+    assert np.all(path[light, 1] == 0) and np.all(path[light, 2] == 0) and np.all(cook[light, 0] != L.light_group)
+
+
+def test_shadow_rays_do_not_meet_the_light_shapes_in_the_top_level():
+    desc = _scene(np.eye(4), [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, 0.0)])
+    with Renderer(desc) as r:
+        L = r.path_lights()
+        o = np.array([[0.0, -5.0 + 0.01, -9.0]], np.float32)          # on the floor under the light, upwards
+        d = np.array([[0.0, 1.0, 0.0]], np.float32)
+        ids, t = np.zeros((1, 4), np.uint32), np.zeros(1)
+        _trace(r.path_scene(), L, o, d, True, ids, t)
+        assert ids[0, 0] == L.light_group and t[0] == pytest.approx(4.0 - 0.01, rel=1e-5)
+        f, u = new_ray_buffer()
+        hit = _masked(r.path_scene(), f, u, o[0], d[0])
+        assert not hit                                                   # surfaces only: nothing above
+
+
+@numba.njit(cache=False)
+def _masked(scene_handle, f, u, o, d):
+    return intersect1_surfaces(scene_handle, f, u, (o[0], o[1], o[2]), (d[0], d[1], d[2]), 0.0, np.inf, 0.0)
+
+
+def test_a_scene_of_geometry_placed_once_has_no_instance_left():
+    floor = D.Container('/', meshes=[quad(12.0)])
+    desc = scene([floor], [D.Material('/m')], [rect_light((0.0, 4.0, 0.0), 1.0, 1.0, (1.0,) * 3)],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 5.0, 9.0), (0.0, 0.0, 0.0))))
+    with Renderer(desc) as r:
+        r.path_lights()
+        assert r._path_top.group_geom_ids == ()                         # a flat scene: no instance array
+        o, d = np.zeros((1, 3), np.float32), np.array([[0.0, -5.0, -9.0]], np.float32) / math.hypot(5.0, 9.0)
+        ids, t = np.zeros((1, 4), np.uint32), np.zeros(1)
+        _trace(r.path_scene(), r.path_lights(), o, d.astype(np.float32), True, ids, t)
+        assert ids[0, :3].tolist() == [0, 0, 0] and t[0] == pytest.approx(math.hypot(5.0, 9.0), rel=1e-6)
+
+
+@pytest.mark.parametrize('case', ['placed twice', 'ellipsoid placement', 'moving scene'])
+def test_what_stays_instanced(case):
+    """A container placed twice is never flattened; a sphere's container placed by a non-similarity stays
+    an instance (its sphere would be an ellipsoid); in a scene where something moves, nothing is taken
+    out of the instances."""
+    boxes = [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, 0.0)]
+    if case == 'placed twice':
+        desc = _scene(np.eye(4), boxes)
+        with Renderer(desc) as r:
+            L = r.path_lights()
+            rows = set(L.direct[:, 1][L.direct[:, 0] == 0].tolist())
+            assert rows == {int(np.nonzero(r.built.data.in_proto == 0)[0][0])}  # not the boxes' rows
+        return
+    once = np.diag([1.0, 0.5, 1.0, 1.0]) if case == 'ellipsoid placement' else np.eye(4)
+    out, L, S = _compare(_scene(once, boxes, moving=case == 'moving scene'))
+    assert not np.any(L.direct[:, 0] == 0)                              # only the light shapes are direct
+    (cook, tc), (path, tp) = out['cook'], out['path']
+    surf = path[:, 0] != L.light_group
+    np.testing.assert_array_equal(path[surf], cook[surf])
+    np.testing.assert_array_equal(tp[surf], tc[surf])                   # the same instances: the same floats
