@@ -328,34 +328,31 @@ def _top_level(dev: Device, protos: list, in_proto: np.ndarray, xf: np.ndarray, 
     return top, perm, grp_base
 
 
-def _placed_once(built: 'BuiltScene', containers: list):
-    """The placements whose geometry can sit in the path integrator's top level itself, already placed:
-    in a scene where nothing moves, those of a container that nothing else places (so no prototype that
-    is placed twice is ever flattened), by an invertible matrix (and, where the container holds spheres,
-    a similarity: a placed sphere stays a sphere).  -> [(placement row, (meshes, spheres) placed, their
-    geometry ids in the prototype)]."""
+def _flat_geometry(built: 'BuiltScene', containers: list):
+    """The geometry of every placement, placed (camera-relative world space), when the scene can be one
+    level: nothing moves and every container is placed once (a prototype placed twice is never
+    flattened), by an invertible matrix (and, where the container holds spheres, a similarity: a placed
+    sphere stays a sphere).  -> [(placement row, (meshes, spheres) placed, their geometry ids in the
+    prototype)], or None."""
     d = built.data
     if built.motion_steps != 1 or len(built.top.groups) != 1:
-        return []
-    counts = np.bincount(d.in_proto, minlength=len(built.prototypes))
+        return None
+    if np.any(np.bincount(d.in_proto) > 1) or np.any(d.in_proto >= len(containers)):   # (ellipsoids: the unit sphere)
+        return None
     out = []
-    for row in np.nonzero(counts[d.in_proto] == 1)[0]:
-        ci = int(d.in_proto[row])
-        if ci >= len(containers):                         # the unit sphere of ellipsoids
-            continue
+    for row in range(len(d.in_proto)):
         m = d.in_xf[row, 0]
-        det = np.linalg.det(m[:, :3])
-        if not np.isfinite(m).all() or abs(det) < 1e-300:
-            continue
-        c = containers[ci]
+        if not np.isfinite(m).all() or abs(np.linalg.det(m[:, :3])) < 1e-300:
+            return None
+        c = containers[int(d.in_proto[row])]
         meshes, spheres = _container_shapes(c, _container_center(c))
         spheres = [cr for cr in spheres if cr is not None]
         scale = _similarity_scale(m[:, :3])
         if spheres and scale is None:
-            continue
+            return None
         placed_meshes = [((v.astype(np.float64) @ m[:, :3].T + m[:, 3]).astype(np.float32), t) for v, t in meshes]
         placed_spheres = [np.array([[*(m[:, :3] @ cr[:3] + m[:, 3]), cr[3] * scale]], np.float32) for cr in spheres]
-        out.append((int(row), (placed_meshes, placed_spheres), list(range(len(meshes) + len(spheres)))))
+        out.append((row, (placed_meshes, placed_spheres), list(range(len(meshes) + len(spheres)))))
     return out
 
 
@@ -364,39 +361,38 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
     the geomID of its first geometry of its own; int64 (n, 3) rows (instance id, instance index, geometry
     id in its prototype) that the hits on each of those geometries stand for, in geomID order).
 
-    * Geometry placed once (`_placed_once`) sits in the top level itself, placed: a ray meets it without
-      entering an instance.  Its placement keeps its row of the instance array (instancing an empty
-      scene), so that instance indices stay placement rows; when no row is left to instance, there is no
-      instance array at all.
-    * The light shapes (`shapes`: light_selection.shape_geometry, or None) sit there too, so that one
-      query of a camera or BSDF ray finds the nearest surface or light shape; they stand for instance
+    * The light shapes (`shapes`: light_selection.shape_geometry, or None) are in it, so that one query
+      of a camera or BSDF ray finds the nearest surface or light shape; they stand for instance
       `light_group`.  They have ray mask MASK_LIGHT_SHAPES and every surface MASK_SURFACES, so that
       shadow rays (mask MASK_SURFACES) pass them: light shapes occlude nothing.
-    Embree traverses one BVH per kind of geometry in a scene (triangles, spheres, curves, instances), and
-    entering an instance costs a ray transform and a restart: a scene of a few gprims traced 1.3-1.7x
-    faster flat than as one instance of its own (RESULTS.md, "The path integrator's top level")."""
-    groups = list(built.top.groups)
-    once = _placed_once(built, containers)
-    if shapes is None and not once:
+    * A scene that can be one level (`_flat_geometry`: every prototype placed once, nothing moving) is:
+      its geometry and the light shapes sit in the top level itself, placed, and a ray meets them without
+      entering an instance (Embree's time on the path integrator's own rays fell to 1/1.45-1/1.6).
+      Otherwise the built placements stay instance arrays 0..n-1 and the light shapes are one more
+      instance, geometry `light_group`: Embree traverses one BVH per kind of geometry in a scene, and in
+      a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
+      time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level")."""
+    flat = _flat_geometry(built, containers)
+    if shapes is None and flat is None:
         return None, -1, np.zeros((0, 3), np.int64)
-    protos = list(built.prototypes)
-    if once:
-        index = np.array(groups[0].proto_index, np.uint32)
-        index[[row for row, _, _ in once]] = len(protos)
-        protos.append(built.device.prototype_scene([], []))
-        groups[0] = InstanceGroup(index, groups[0].transforms) if len(once) < len(index) else None
+    if flat is None:
+        light = built.device.prototype_scene(shapes[0], shapes[1], curves=shapes[2])
+        groups = list(built.top.groups) + [InstanceGroup(np.array([len(built.prototypes)], np.uint32),
+                                                         np.eye(4, dtype=np.float32)[None, None, :3])]
+        masks = [MASK_SURFACES] * (len(groups) - 1) + [MASK_LIGHT_SHAPES]
+        top = built.device.top_scene(list(built.prototypes) + [light], groups, masks=masks)
+        light.close()                                     # the top level holds its own reference
+        return top, -1, np.zeros((0, 3), np.int64)
     base = light_group + 1
     direct, table = [], []
-    for row, (meshes, spheres), geoms in once:
+    for row, (meshes, spheres), geoms in flat:
         direct.append((base + len(table), MASK_SURFACES, meshes, spheres, ()))
         table += [(0, row, g) for g in geoms]
     if shapes is not None:
         meshes, spheres, curves = shapes
         direct.append((base + len(table), MASK_LIGHT_SHAPES, meshes, spheres, curves))
         table += [(light_group, 0, g) for g in range(len(meshes) + len(spheres) + len(curves))]
-    kept = [g for g in groups if g is not None]
-    top = built.device.top_scene(protos, kept, masks=[MASK_SURFACES] * len(kept), direct=direct)
-    top.kept = protos[len(built.prototypes):]         # the empty scene lives as long as the top level
+    top = built.device.top_scene([], [], direct=direct)
     return top, base, np.array(table, np.int64).reshape(-1, 3)
 
 

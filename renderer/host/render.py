@@ -168,8 +168,7 @@ class Renderer:
             self._pool.shutdown()
             self._pool = None
         if getattr(self, '_path_top', None) is not None:
-            for scene in [self._path_top] + self._path_top.kept:
-                scene.close()
+            self._path_top.close()
             self._path_top = None
         self.built.close()
 

@@ -135,9 +135,9 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
 
 @nb.njit(**SHADING_INLINE_JIT)
 def placed_hit(L, u):
-    """Give a hit on geometry placed in the top level itself (`host/build.path_top`: placed once), which
-    Embree reports without an instance, the instance ids of its placement and its geometry id in the
-    prototype, as every other hit has them (`shapes.hit_gprim` reads them)."""
+    """Give a hit on geometry of the path integrator's top level itself (`host/build.path_top`: a scene
+    of one level), which Embree reports without an instance, the instance ids of its placement and its
+    geometry id in the prototype, as in the built top level (`shapes.hit_gprim` reads them)."""
     if u[INST_ID] == INVALID and u[GEOM_ID] != INVALID and L.direct.shape[0] > 0:
         k = np.int64(u[GEOM_ID]) - L.direct_base
         u[INST_ID] = L.direct[k, 0]

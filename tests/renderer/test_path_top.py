@@ -50,16 +50,17 @@ def _rotation_y(deg, scale=1.0):
 
 def _scene(once_matrix, box_matrices, moving=False, lights=True):
     """Container 0 (a floor and a sphere) placed once by `once_matrix`; container 1 (a box) placed at
-    each of `box_matrices` (the first one moving if `moving`); a rect light above (a light shape)."""
+    each of `box_matrices` (the first one moving if `moving`), row 0 and rows 2, 3, ...; a rect light
+    above (a light shape)."""
     floor = D.Container('/', meshes=[quad(12.0)],
                         spheres=[D.Sphere(path='/ball', radius=0.7, matrix=translate(-2.0, 0.7, 1.0), material=0)])
     boxes = D.Container('/Box', meshes=[_box()])
-    mats = list(box_matrices) + [once_matrix]         # the once-placed row last: its row is no 0
+    mats = [box_matrices[0], once_matrix] + list(box_matrices[1:])
     k = 2 if moving else 1
     m = np.repeat(np.asarray(mats, np.float64)[:, None], k, axis=1)
     if moving:
         m[0, 1] = m[0, 1] @ translate(0.3, 0.0, 0.0)
-    inst = D.Instances(container=np.array([1] * len(box_matrices) + [0], np.int32), matrices=m,
+    inst = D.Instances(container=np.array([1, 0] + [1] * (len(box_matrices) - 1), np.int32), matrices=m,
                        material_set=np.zeros(len(mats), np.int32), material_sets=[()])
     lamps = [rect_light((0.0, 4.0, 0.0), 1.5, 1.0, (5.0, 5.0, 5.0))] if lights else []
     cam = D.Camera(path='/cam', matrix=look_at((0.5, 5.0, 9.0), (0.0, 0.5, 0.0)))
@@ -92,20 +93,18 @@ def _compare(desc):
         return out, L, r.built.data
 
 
-def test_geometry_placed_once_is_traced_in_the_top_level_and_reads_as_its_placement():
+def test_a_scene_of_prototypes_placed_once_is_traced_flat_and_its_hits_read_as_their_placements():
     once = translate(0.5, 0.0, -0.5) @ _rotation_y(30.0, 1.25)          # a similarity: its sphere stays one
-    out, L, S = _compare(_scene(once, [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, -2.0) @ _rotation_y(45)]))
+    out, L, S = _compare(_scene(once, [translate(-2.5, 0.0, -2.0) @ _rotation_y(45)]))
     (cook, tc), (path, tp), (raw, _) = out['cook'], out['path'], out['raw']
-    row0 = int(np.nonzero(S.in_proto == 0)[0][0])
-    assert row0 == 2
-    # the table: the floor and the ball of placement row0, then the rect light's triangles
-    assert L.direct.tolist() == [[0, row0, 0], [0, row0, 1], [L.light_group, 0, 0]]
-    on_floor_or_ball = (cook[:, 0] == 0) & (cook[:, 1] == row0)
-    on_box = (cook[:, 0] == 0) & (cook[:, 1] != row0)
-    assert on_floor_or_ball.sum() > 500 and on_box.sum() > 50 and (cook[:, 2] == 1).sum() > 20
-    # Embree reports no instance for the once-placed geometry, the instance row for the boxes ...
-    assert np.all(raw[on_floor_or_ball, 0] == INVALID) and np.all(raw[on_box, 1] == cook[on_box, 1])
-    # ... and after placed_hit every surface hit reads as in the instanced scene
+    assert S.in_proto.tolist() == [1, 0]                                # row 0 the box, row 1 the floor and ball
+    # the table: the box of row 0, the floor and the ball of row 1, then the rect light's triangles
+    assert L.direct.tolist() == [[0, 0, 0], [0, 1, 0], [0, 1, 1], [L.light_group, 0, 0]]
+    hits = cook[:, 0] != INVALID
+    assert (cook[hits, 1] == 0).sum() > 20 and (cook[hits, 1] == 1).sum() > 500 and (cook[:, 2] == 1).sum() > 20
+    # Embree reports no instance for any of them ...
+    assert np.all(raw[hits, 0] == INVALID)
+    # ... and after placed_hit every surface hit reads as in the instanced scene, at the same distance
     light = path[:, 0] == L.light_group
     assert light.sum() > 10                                             # cook's top has no light shapes
     surf = ~light
@@ -148,22 +147,18 @@ def test_a_scene_of_geometry_placed_once_has_no_instance_left():
 
 
 @pytest.mark.parametrize('case', ['placed twice', 'ellipsoid placement', 'moving scene'])
-def test_what_stays_instanced(case):
-    """A container placed twice is never flattened; a sphere's container placed by a non-similarity stays
+def test_a_scene_that_keeps_instances_keeps_them_all(case):
+    """A prototype placed twice is never flattened; a sphere's container placed by a non-similarity stays
     an instance (its sphere would be an ellipsoid); in a scene where something moves, nothing is taken
-    out of the instances."""
-    boxes = [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, 0.0)]
-    if case == 'placed twice':
-        desc = _scene(np.eye(4), boxes)
-        with Renderer(desc) as r:
-            L = r.path_lights()
-            rows = set(L.direct[:, 1][L.direct[:, 0] == 0].tolist())
-            assert rows == {int(np.nonzero(r.built.data.in_proto == 0)[0][0])}  # not the boxes' rows
-        return
+    out of the instances.  Then nothing else is either (geometry taken out of instances, beside them,
+    adds a BVH that every ray traverses), and the light shapes are one more instance."""
+    boxes = [translate(2.5, 0.0, 0.0)] + ([translate(-2.5, 0.0, 0.0)] if case == 'placed twice' else [])
     once = np.diag([1.0, 0.5, 1.0, 1.0]) if case == 'ellipsoid placement' else np.eye(4)
     out, L, S = _compare(_scene(once, boxes, moving=case == 'moving scene'))
-    assert not np.any(L.direct[:, 0] == 0)                              # only the light shapes are direct
-    (cook, tc), (path, tp) = out['cook'], out['path']
-    surf = path[:, 0] != L.light_group
-    np.testing.assert_array_equal(path[surf], cook[surf])
-    np.testing.assert_array_equal(tp[surf], tc[surf])                   # the same instances: the same floats
+    assert L.direct.shape == (0, 3)
+    (cook, tc), (path, tp), (raw, _) = out['cook'], out['path'], out['raw']
+    light = path[:, 0] == L.light_group
+    assert light.sum() > 10 and np.all(path[light, 1:3] == 0)
+    np.testing.assert_array_equal(raw, path)                            # nothing for placed_hit to do
+    np.testing.assert_array_equal(path[~light], cook[~light])
+    np.testing.assert_array_equal(tp[~light], tc[~light])               # the same instances: the same floats
