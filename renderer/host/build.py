@@ -226,8 +226,8 @@ def _container_shapes(c: D.Container, ctr: np.ndarray):
     """A container's Embree geometry in its object space (re-centred on `ctr`): ([(vertices float32,
     triangles uint32)] per mesh, [centre - ctr, radius] float64 per sphere or None for a sphere that is
     not similarity-placed (an ellipsoid: an instance of the unit sphere))."""
-    meshes = [((np.asarray(m.points, np.float64) - ctr).astype(np.float32), np.ascontiguousarray(m.triangles, np.uint32))
-              for m in c.meshes]
+    meshes = [((np.asarray(m.points, np.float64) - ctr).astype(np.float32),
+               np.ascontiguousarray(m.triangles, np.uint32)) for m in c.meshes]
     spheres = []
     for s in c.spheres:
         scale = _similarity_scale(s.matrix[:3, :3])
@@ -337,7 +337,7 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
     d = built.data
     if built.motion_steps != 1 or len(built.top.groups) != 1:
         return None
-    if np.any(np.bincount(d.in_proto) > 1) or np.any(d.in_proto >= len(containers)):   # (ellipsoids: the unit sphere)
+    if np.any(np.bincount(d.in_proto) > 1) or np.any(d.in_proto >= len(containers)):   # the ellipsoids' unit sphere
         return None
     out = []
     for row in range(len(d.in_proto)):

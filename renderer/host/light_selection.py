@@ -59,11 +59,11 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
 
 def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
     """((meshes, spheres, curves) as `embree.Device.prototype_scene` takes them, or None; geom_off,
-    prim_light) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top` puts them in
-    the path integrator's top level): rects and disks as two triangles each (a disk's circumscribed square; the kernel's exact
-    test `light_sampling.hit_shape` rejects the corners), spheres as sphere points, cylinders as one
-    segment of a round linear curve each (a capsule: Embree has no open cylinder; the capsule is
-    convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
+    prim_light) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top` puts them
+    in the path integrator's top level): rects and disks as two triangles each (a disk's circumscribed
+    square; the kernel's exact test `light_sampling.hit_shape` rejects the corners), spheres as sphere
+    points, cylinders as one segment of a round linear curve each (a capsule: Embree has no open
+    cylinder; the capsule is convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
     capsule there, and the exact test rejects the hits on the round caps); light of a hit =
     prim_light[geom_off[geomID] + primID]."""
     planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]

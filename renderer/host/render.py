@@ -110,8 +110,8 @@ class Renderer:
         return self._lights
 
     def path_scene(self) -> int:
-        """The Embree scene path renders trace: the placements, the light shapes and the geometry placed
-        once (`build.path_top`; the built top level when it needs none of these)."""
+        """The Embree scene path renders trace (`build.path_top`): the placements and the light shapes, or
+        a scene with no instancing flat; the built top level when neither applies."""
         self.path_lights()
         return self._path_top.handle if self._path_top is not None else self.built.handle
 
