@@ -107,6 +107,17 @@ def _step(node, c1, p0, pmf, u):
 
 
 @nb.njit(**_JIT)
+def lone_light(L):
+    """The scene's one light when it has exactly one (bounded or not), else -1.  Then there is no choice
+    to make: every vertex samples it (`choose_lights` is not called and its 1D sample not drawn), with
+    expected count 1 (`light_pmf`); where it cannot light the vertex its sample contributes nothing
+    (the light's own sampling and emission are zero there), so the estimate is the tree's."""
+    if L.n_bounded + L.unbounded.shape[0] != 1:
+        return -1
+    return L.unbounded[0] if L.n_bounded == 0 else L.tree_i[0, 0]
+
+
+@nb.njit(**_JIT)
 def choose_lights(L, p, n, u):
     """The light samples of a path vertex at point p with normal n, u in [0, 1): ((light, its
     expected number of samples there) for the main sample and for up to two side samples), light -1
@@ -181,6 +192,8 @@ def light_pmf(L, p, n, k):
     product of the probabilities of the children on its trail, where a split node's likely child
     counts 1 and its other child q times the probability that fewer than two side-sample chances came
     up above it."""
+    if lone_light(L) == k:
+        return 1.0
     d = L.depth[k]
     if d < 0:                                        # a light without a position
         pu = _p_unbounded(L)

@@ -42,7 +42,7 @@ from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_
 from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission
-from .light_tree import choose_lights
+from .light_tree import NO_SAMPLE, choose_lights, lone_light
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
@@ -91,8 +91,12 @@ def next_event(S, L, tr, key, v, vtx, b, strategy):
     sample or two where the light tree splits (`light_tree.choose_lights`; each of another light, all
     from the same light-point sample), each MIS-weighted against BSDF sampling; not yet multiplied by
     the path throughput."""
-    main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index,
-                                                                   key.spp, path_dim(v, P_CHOICE)))
+    lone = lone_light(L)
+    if lone >= 0:
+        main, side1, side2 = (lone, 1.0), NO_SAMPLE, NO_SAMPLE
+    else:
+        main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index,
+                                                                       key.spp, path_dim(v, P_CHOICE)))
     if main[0] < 0 and side1[0] < 0 and side2[0] < 0:
         return BLACK
     u = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))

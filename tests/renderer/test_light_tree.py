@@ -2,7 +2,8 @@
 times per vertex on average as `light_pmf` reports (at least one sample; a dominant light at every
 vertex), the importance of
 a point light is its power over the squared distance times the receiver's cosine, cone unions hold
-both cones, and a light behind a one-sided rect's back or below the receiver's horizon is never chosen."""
+both cones, a light behind a one-sided rect's back or below the receiver's horizon is never chosen, and
+a scene's one light is sampled at every vertex without a choice exactly where the tree would choose it."""
 import math
 
 import numpy as np
@@ -12,7 +13,9 @@ from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import ENTIRE, cone_union
-from rtc.renderer.kernel.light_tree import SPLIT_BELOW, SPLIT_DEEP, choose_lights, importance, light_pmf
+from rtc.renderer.kernel.light_sampling import sample_ld
+from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, choose_lights, importance, light_pmf,
+                                           lone_light)
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -181,3 +184,44 @@ def test_cone_union_holds_both_cones():
             for phi in np.linspace(0, 2 * math.pi, 16):
                 rim = cos_half * axis + s * (math.cos(phi) * t + math.sin(phi) * np.cross(axis, t))
                 assert np.dot(rim, w) >= c - 1e-9
+
+
+@pytest.mark.parametrize('light', [
+    _rect((0.0, 2.0, 0.0), (0.3, -1.0, 0.2), 1.0, 5.0),
+    D.Light(path='/s', type=D.SPHERE, matrix=translate(0.5, 1.5, 0.0), radiance=(4.0,) * 3, radius=0.3),
+    D.Light(path='/sky', type=D.DOME, matrix=np.eye(4), radiance=(0.2,) * 3)])
+def test_a_lone_light_is_the_trees_choice_wherever_it_can_light_the_vertex(light):
+    """`lone_light` (the path kernel's shortcut for one-light scenes: no choice, no 1D sample) names the
+    light; wherever the tree chooses it, it chooses it alone with count 1, as light_pmf reports; where
+    the tree does not (the back of a rect), the light's own samples carry no light (pdf 0), so skipping
+    the tree changes no estimate."""
+    desc = scene([D.Container('/', meshes=[quad(4.0)])], [D.Material('/m')], [light],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+    try:
+        assert lone_light(L) == 0
+        rng = np.random.default_rng(11)
+        chosen = culled = 0
+        for _ in range(400):
+            p = tuple(rng.uniform(-4.0, 4.0, 3) - (0.0, 3.0, 8.0))          # camera-relative, as the kernels see it
+            n = rng.normal(size=3)
+            n = tuple(n / np.linalg.norm(n))
+            assert light_pmf(L, p, n, 0) == 1.0
+            for u in (0.1, 0.6):
+                main, side1, side2 = choose_lights(L, p, n, u)
+                assert side1 == NO_SAMPLE and side2 == NO_SAMPLE
+                if main[0] >= 0:
+                    chosen += 1
+                    assert main == (0, 1.0)
+                else:
+                    culled += 1
+                    assert all(not sample_ld(built.data, L, 0, p, n, a, b)[3] > 0.0
+                               for a in (0.05, 0.5, 0.95) for b in (0.05, 0.5, 0.95))
+        assert chosen > 400 and (culled > 40 if light.type == D.RECT else culled == 0)
+    finally:
+        built.close()
+
+
+def test_two_lights_are_not_lone(lights):
+    assert lone_light(lights) == -1
