@@ -23,6 +23,14 @@ def general_kernels() -> bool:
     return os.environ.get('RTC_KERNELS', '').strip().lower() == 'general'
 
 
+def see_through(data) -> bool:
+    """Whether a surface of the built scene tables `data` lets some rays through: a UsdPreviewSurface that
+    a gprim can have, with opacity < 1."""
+    used = np.unique(np.concatenate([data.gp_material, data.matset[data.matset >= 0]]))
+    mi, mf = data.mat_i[used], data.mat_f[used]
+    return bool(np.any(mf[mi[:, MI_MODEL] == D.PREVIEW_SURFACE, MF_OPACITY] < 1.0))
+
+
 def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None) -> Features:
     """The `Features` of a render of the built scene tables `data` (`build.SceneData`) with resolved
     `options`, camera table `ctab` and shutter sampling `use_time`; `lights`: the path integrator's
@@ -30,7 +38,6 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
     path = options.integrator == 'path'
     used = np.unique(np.concatenate([data.gp_material, data.matset[data.matset >= 0]]))     # materials hit can have
     mi, mf = data.mat_i[used], data.mat_f[used]
-    preview = mi[:, MI_MODEL] == D.PREVIEW_SURFACE
     kinds = data.li_type[data.li_type >= 0]
     rows = np.flatnonzero(data.li_type >= 0)
     course = data.li_f[rows, LF_COURSE] != 0.0
@@ -44,7 +51,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
         textures=bool(np.any(mi[:, MI_DIFFUSE_TEX] >= 0) or np.any(mi[:, MI_SPECULAR_TEX] >= 0)),
-        opacity=bool(np.any(mf[preview, MF_OPACITY] < 1.0)),
+        opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),
         spheres=bool(np.any(data.gp_kind == GP_SPHERE)),

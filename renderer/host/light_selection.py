@@ -28,13 +28,14 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
+from .features import see_through
 from .light_tree import light_tree
 from .surface_lights import surface_lights, surface_lights_none
 
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
                                        'prim_light', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
-                                       'sl_row', 'sl_idx', 'direct_base', 'direct'])
+                                       'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -108,7 +109,9 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     """(PathLights record, the light shapes' geometry or None: `shape_geometry`) of a built scene (li_f:
     the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
     report in the path integrator's top level, `build.path_top`;
-    data: its `build.SceneData`, whose emissive surfaces become lights; None: none do)."""
+    data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
+    whether a surface lets rays through (`features.see_through`; without `data`, whether a material
+    could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
@@ -126,7 +129,9 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
                       dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if geometry else -1,
                       geom_off=geom_off, prim_light=prim_light, **_surface_fields(desc, surf),
-                      direct_base=-1, direct=np.zeros((0, 3), np.int64)), geometry
+                      direct_base=-1, direct=np.zeros((0, 3), np.int64),
+                      see_through=see_through(data) if data is not None else any(
+                          m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials)), geometry
 
 
 def _warner(desc: D.SceneDescription):

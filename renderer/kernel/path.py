@@ -25,7 +25,12 @@ are DIM_PIXEL, DIM_LENS, DIM_TIME (camera) and per path vertex v the PATH_PAIRS 
 `path_dim(v, P_*)`: light point (2D), light choice, BSDF direction (2D), lobe choice (also the
 opacity choice, rescaled), roulette.  Pure functions of their arguments: images are bit-identical
 whatever the thread count or the split into passes.  Camera rays are traced in 16-ray packets
-(rtcIntersect16), every later ray alone (rtcIntersect1 / rtcOccluded1).
+(rtcIntersect16), BSDF rays alone (rtcIntersect1).  A shadow ray only decides whether its light sample
+counts, so where no surface is see-through it is queued with its contribution (`_defer_shadow`) and
+traced with 15 others (rtcOccluded16: Embree's fixed cost per query shared by 16 rays), the unoccluded
+contributions added to their lanes' light once the camera packet's paths are done; in scenes with
+see-through surfaces (partial opacity) shadow rays are traced alone, through them
+(`shadow_transmittance`).
 """
 
 import math
@@ -39,7 +44,8 @@ from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
-from .integrator import BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, _shading_point
+from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
+                         _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
@@ -52,8 +58,8 @@ from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
-from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, hit_of, intersect1,
-                    intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces)
+from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_SURFACES, PACKET, PRIM_ID, TFAR, hit_of,
+                    intersect1, intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces, set_ray16)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -130,11 +136,38 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     ws = wi
     if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
         ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
+    if not (F_OPACITY and L.see_through):               # nothing to see through: one occlusion query
+        s = w / pl
+        T = vtx.T
+        _defer_shadow(tr, vtx, ws, smax, (T[0] * fc[0] * Le[0] * s, T[1] * fc[1] * Le[1] * s, T[2] * fc[2] * Le[2] * s))
+        return BLACK
     vis = shadow_transmittance(S, L, tr, vtx.po, ws, smax, vtx.time)
     if vis == 0.0:
         return BLACK
     s = vis * w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
+
+
+@nb.njit(**STAGE_JIT)
+def _defer_shadow(tr, vtx, d, smax, c):
+    """Queue the shadow ray of a light sample (from vtx.po along d up to smax; surfaces only: light shapes
+    occlude nothing) whose unoccluded contribution, throughput included, is c: it goes to the lane's
+    deferred direct light (`ShadowQueue.direct`) when the queue is traced, as one rtcOccluded16 packet
+    every 16 rays and at the end of the camera packet's paths (`path_tile`)."""
+    q = tr.queue
+    n = q.count[0]
+    tr.counts[RAYS_SHADOW] += 1
+    tr.counts[RAYS_SHADOW_PACKET] += 1
+    record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET, vtx.po, d, 0.0, smax, vtx.time)
+    set_ray16(q.packet, n, vtx.po, d, 0.0, smax, vtx.time)
+    q.packet.u[MASK * PACKET + n] = MASK_SURFACES
+    q.lane[n] = vtx.lane
+    q.contrib[n, 0] = c[0]
+    q.contrib[n, 1] = c[1]
+    q.contrib[n, 2] = c[2]
+    q.count[0] = n + 1
+    if n + 1 == PACKET:
+        _flush_shadows(tr.scene, q)
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -288,7 +321,8 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         wl = (dot(wo, tt), dot(wo, bb), dot(wo, ns))
         po = _origin(p, ng, osc)
         if strategy != BSDF_ONLY and n_lights > 0 and not is_delta(b):
-            Lo = _add(Lo, T, next_event(S, L, tr, key, v, Vertex(p, ng, ns, tt, bb, wl, po, time), b, strategy))
+            Lo = _add(Lo, T, next_event(S, L, tr, key, v, Vertex(p, ng, ns, tt, bb, wl, po, time, T, path.lane),
+                                                     b, strategy))
         u1, u2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_BSDF))
         il, w, pdf, delta = sample(b, wl, ul, u1, u2)
         if w[0] == 0.0 and w[1] == 0.0 and w[2] == 0.0:
@@ -341,10 +375,23 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
                       pp.cam[C_NEAR], pp.cam[C_FAR], lanes.time[0, j])
         intersect16(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
+        rad = lanes.L
         for j in range(n):
             path = Path(SampleKey(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp), j, lanes.time[0, j])
             c = trace_path(S, L, tr, pp, path, Ray((lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j])),
                            packet)
+            rad[j, 0] = c[0]
+            rad[j, 1] = c[1]
+            rad[j, 2] = c[2]
+        if not (F_OPACITY and L.see_through):             # the deferred shadow rays (`_defer_shadow`)
+            q = tr.queue
+            _flush_shadows(tr.scene, q)
+            for j in range(n):
+                for k in range(3):
+                    rad[j, k] += q.direct[j, k]
+                    q.direct[j, k] = 0.0
+        for j in range(n):
+            c = (rad[j, 0], rad[j, 1], rad[j, 2])
             if math.isfinite(c[0]) and math.isfinite(c[1]) and math.isfinite(c[2]):
                 x = ids[2, j] - pp.window[0]
                 y = ids[3, j] - pp.window[1]

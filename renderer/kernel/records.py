@@ -8,7 +8,9 @@ Per render pass
     Tile            the pixels [x0, x1) x [y0, y1) of tile `index`
 Per thread (allocated once per tile by `render_pass`; the shading code allocates nothing)
     Packet          an RTCRayHit16 packet: valid mask, float32 and uint32 views of its fields
-    ShadowQueue     first-hit shadow rays waiting to be traced as one rtcOccluded16 packet
+    ShadowQueue     shadow rays waiting to be traced as one rtcOccluded16 packet, and the light of the
+                    unoccluded ones per lane (cook: first-hit shadow rays; path: every shadow ray where no
+                    surface is see-through)
     Lanes           the camera stage's per-lane state (structure of arrays, so that loops vectorise)
     Scratch         one render thread's arrays, allocated by the host (`integrator.new_scratch`): the camera
                     packet, the single-ray buffer, matrix scratch, a tile's counters, the shadow queue, the lanes,
@@ -26,7 +28,8 @@ Per path and bounce
                     to the viewer and the material's (textured) colours
     PathState       radiance gathered so far, throughput, and the Beer attenuation of the current medium
     Vertex          a path vertex as next-event estimation needs it (path): position, normals, shading frame,
-                    direction to the viewer in that frame, shadow-ray origin, time
+                    direction to the viewer in that frame, shadow-ray origin, time, the path's throughput
+                    and its lane in the camera packet (whose light a queued shadow ray adds to)
     PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
                     and how the light it finds is weighted (power heuristic, 1, or 0)
     Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
@@ -47,6 +50,6 @@ Ray = namedtuple('Ray', ['o', 'd'])
 Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v', 't'])
 ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks'])
 PathState = namedtuple('PathState', ['L', 'T', 'A'])
-Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time'])
+Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time', 'T', 'lane'])
 PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode'])
 Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])
