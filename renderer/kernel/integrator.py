@@ -46,8 +46,8 @@ from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .tiles import claim_tile
-from .trace import (PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1, intersect16, lane_hit,
-                    occluded1, occluded16, set_ray16)
+from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1, intersect16,
+                    lane_hit, occluded1, occluded16, set_ray16)
 from .vecmath import dot, normalize, offset_origin, onb, reflect
 
 # counters (per tile): rays by kind, samples dropped as non-finite, and how many of the shadow rays were
@@ -161,11 +161,13 @@ def _accumulate(lanes, ldir, n, accum, origin, counts):
 
 
 @nb.njit(**STAGE_JIT)
-def _enqueue_shadow(tr, lane, po, wi, smax, time, c):
-    """Queue a first-hit shadow ray whose unoccluded contribution c = (r, g, b) goes to `lane`."""
+def _enqueue_shadow(tr, lane, po, wi, smax, time, c, mask):
+    """Queue a shadow ray (ray mask `mask`) whose unoccluded contribution c = (r, g, b) goes to `lane`'s
+    light (`ShadowQueue.direct`); the queue is traced as one rtcOccluded16 packet when it holds 16."""
     q = tr.queue
     n = q.count[0]
     set_ray16(q.packet, n, po, wi, 0.0, smax, time)
+    q.packet.u[MASK * PACKET + n] = mask
     q.lane[n] = lane
     q.contrib[n, 0] = c[0]
     q.contrib[n, 1] = c[1]
@@ -257,7 +259,7 @@ def _direct_light(S, tr, path, sp, depth, state):
             record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET if depth == 0 else RAYS_SHADOW, po, wi, 0.0, smax, time)
             if depth == 0:               # first hit: traced later, in a packet
                 tr.counts[RAYS_SHADOW_PACKET] += 1
-                _enqueue_shadow(tr, path.lane, po, wi, smax, time, (tr_ * c[0], tg * c[1], tb * c[2]))
+                _enqueue_shadow(tr, path.lane, po, wi, smax, time, (tr_ * c[0], tg * c[1], tb * c[2]), MASK_ALL)
                 continue
             if occluded1(tr.scene, tr.f, tr.u, po, wi, 0.0, smax, time):
                 continue

@@ -45,7 +45,7 @@ from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
 from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
-                         _flush_shadows, _shading_point)
+                         _enqueue_shadow, _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
@@ -58,8 +58,8 @@ from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
-from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_SURFACES, PACKET, PRIM_ID, TFAR, hit_of,
-                    intersect1, intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces, set_ray16)
+from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK_SURFACES, PACKET, PRIM_ID, TFAR, hit_of,
+                    intersect1, intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -154,20 +154,10 @@ def _defer_shadow(tr, vtx, d, smax, c):
     occlude nothing) whose unoccluded contribution, throughput included, is c: it goes to the lane's
     deferred direct light (`ShadowQueue.direct`) when the queue is traced, as one rtcOccluded16 packet
     every 16 rays and at the end of the camera packet's paths (`path_tile`)."""
-    q = tr.queue
-    n = q.count[0]
     tr.counts[RAYS_SHADOW] += 1
     tr.counts[RAYS_SHADOW_PACKET] += 1
     record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET, vtx.po, d, 0.0, smax, vtx.time)
-    set_ray16(q.packet, n, vtx.po, d, 0.0, smax, vtx.time)
-    q.packet.u[MASK * PACKET + n] = MASK_SURFACES
-    q.lane[n] = vtx.lane
-    q.contrib[n, 0] = c[0]
-    q.contrib[n, 1] = c[1]
-    q.contrib[n, 2] = c[2]
-    q.count[0] = n + 1
-    if n + 1 == PACKET:
-        _flush_shadows(tr.scene, q)
+    _enqueue_shadow(tr, vtx.lane, vtx.po, d, smax, vtx.time, c, MASK_SURFACES)
 
 
 @nb.njit(**SHADING_INLINE_JIT)

@@ -89,6 +89,7 @@ _ALL_MASK = 0xFFFFFFFF
 # geometry iff ray mask & geometry mask != 0; camera and BSDF rays meet everything, shadow rays only
 # surfaces (light shapes occlude nothing)
 MASK_SURFACES, MASK_LIGHT_SHAPES = 1, 2
+MASK_ALL = _ALL_MASK              # a ray that meets every geometry (the cook integrator's scenes have no masks)
 _XFM_ROW_MAJOR = 0x9134
 
 
