@@ -46,8 +46,8 @@ from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .tiles import claim_tile
-from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1, intersect16,
-                    lane_hit, occluded1, occluded16, set_ray16)
+from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1,
+                    intersect16_coherent, lane_hit, occluded1, occluded16, set_ray16)
 from .vecmath import dot, normalize, offset_origin, onb, reflect
 
 # counters (per tile): rays by kind, samples dropped as non-finite, and how many of the shadow rays were
@@ -128,7 +128,7 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum):
                       cam[C_NEAR], cam[C_FAR], lane_t[j])
             for k in range(3):
                 ldir[j, k] = 0.0
-        intersect16(tr.scene, packet)
+        intersect16_coherent(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         for j in range(n):
             path = Path(SampleKey(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp), j, lane_t[j])

@@ -59,7 +59,7 @@ from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK_SURFACES, PACKET, PRIM_ID, TFAR, hit_of,
-                    intersect1, intersect1_surfaces, intersect16, lane_hit, occluded1_surfaces)
+                    intersect1, intersect1_surfaces, intersect16_coherent, lane_hit, occluded1_surfaces)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -363,7 +363,7 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
         for j in range(n):
             record_if(tr.rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
                       pp.cam[C_NEAR], pp.cam[C_FAR], lanes.time[0, j])
-        intersect16(tr.scene, packet)
+        intersect16_coherent(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         rad = lanes.L
         for j in range(n):
