@@ -25,7 +25,7 @@ are DIM_PIXEL, DIM_LENS, DIM_TIME (camera) and per path vertex v the PATH_PAIRS 
 `path_dim(v, P_*)`: light point (2D), light choice, BSDF direction (2D), lobe choice (also the
 opacity choice, rescaled), roulette.  Pure functions of their arguments: images are bit-identical
 whatever the thread count or the split into passes.  Camera rays are traced in 16-ray packets
-(rtcIntersect16), BSDF rays alone (rtcIntersect1).  A shadow ray only decides whether its light sample
+(rtcIntersect16 in Embree's coherent mode: `trace.intersect16_coherent`), BSDF rays alone (rtcIntersect1).  A shadow ray only decides whether its light sample
 counts, so where no surface is see-through it is queued with its contribution (`_defer_shadow`) and
 traced with 15 others (rtcOccluded16: Embree's fixed cost per query shared by 16 rays), the unoccluded
 contributions added to their lanes' light once the camera packet's paths are done; in scenes with
@@ -139,7 +139,8 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     if not (F_OPACITY and L.see_through):               # nothing to see through: one occlusion query
         s = w / pl
         T = vtx.T
-        _defer_shadow(tr, vtx, ws, smax, (T[0] * fc[0] * Le[0] * s, T[1] * fc[1] * Le[1] * s, T[2] * fc[2] * Le[2] * s))
+        c = (T[0] * fc[0] * Le[0] * s, T[1] * fc[1] * Le[1] * s, T[2] * fc[2] * Le[2] * s)
+        _defer_shadow(tr, vtx, ws, smax, c)
         return BLACK
     vis = shadow_transmittance(S, L, tr, vtx.po, ws, smax, vtx.time)
     if vis == 0.0:
