@@ -12,15 +12,21 @@ facing away or below the horizon is rarely chosen, whatever its power.  Lights w
 (dome, distant) are chosen uniformly with probability n / (n + 1) (n of them; the tree the rest).
 
 Split: the lights are cut at the median of their centres along the longest axis of the centres'
-box (a balanced tree: depth log2 n).  Each light's path from the root is kept as a bit trail, so
-that the probability of a given light at a given point (MIS of BSDF-sampled rays that hit it) is
-one walk down that path.
+box (a balanced binary tree: depth log2 n), and the binary tree is collapsed into nodes of up to
+TREE_WIDTH (8) children, three binary levels at a time: a walk makes log8 n choices, each among eight
+children whose importances the kernel computes in one vectorised loop (1000 lights: 4 choices of 8
+instead of 10 of 2; `benchmarks/RESULTS.md`, "Many lights").  Each light's path from the root is kept
+as a trail of slots, so that the probability of a given light at a given point (MIS of BSDF-sampled
+rays that hit it) is one walk down that path.
 
 Arrays (the `PathLights` fields `tree_f`, `tree_i`, `trail`, `depth`, `unbounded`):
-  tree_f float64 (nodes, tables.LIGHT_TREE): centre, half diagonal length, bounding-sphere radius, phi, w,
-         cos and sin theta_o, cos theta_e, two-sided (0/1)
-  tree_i int64 (nodes, 2): second child (the first is node + 1) or the light of a leaf; 1 for a leaf
-  trail  int64 (lights,): bit d set = the second child at depth d; depth int64 (lights,): the leaf's depth
+  tree_f float64 (nodes, tables.LIGHT_TREE * TREE_WIDTH): the bounds of each child of a node - centre,
+         half diagonal length, bounding-sphere radius, phi, w, cos and sin theta_o, cos theta_e,
+         two-sided (0/1) - field-major (column T_x * TREE_WIDTH + j: field x of child j)
+  tree_i int64 (nodes, TREE_WIDTH): a child's node, or -1 - its light for a leaf; -1 and phi 0 in an
+         empty slot
+  trail  int64 (lights,): the light's slot at depth d in bits [3d, 3d + 3); depth int64 (lights,): the
+         number of nodes on its way from the root (-1: not in the tree)
 """
 from __future__ import annotations
 
@@ -29,7 +35,7 @@ import math
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE
+from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE, TRAIL_BITS, TREE_WIDTH
 ENTIRE = (np.array([0.0, 0.0, 1.0]), -1.0)          # the cone of every direction
 
 
@@ -98,52 +104,106 @@ def _union(items):
     return lo, hi, sum(b[2] for b in items), cone, min(b[4] for b in items), any(b[5] for b in items)
 
 
-def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(tree_f, tree_i, {light: (trail, depth)}) of a balanced tree over `bounds` (one per light)."""
+def _record(b) -> np.ndarray:
+    """The LIGHT_TREE fields of bounds b = (lo, hi, phi, (w, cos_o), cos_e, two_sided)."""
+    lo, hi, phi, (w, cos_o), cos_e, two = b
+    c = 0.5 * (lo + hi)
+    rec = np.zeros(LIGHT_TREE.width)
+    LIGHT_TREE.write(rec, C=c, HALF_DIAG=0.5 * float(np.linalg.norm(hi - lo)), RADIUS=float(np.linalg.norm(hi - c)),
+                     PHI=phi, W=w, COS_O=cos_o, SIN_O=math.sqrt(max(0.0, 1.0 - cos_o * cos_o)), COS_E=cos_e,
+                     TWO_SIDED=float(two))
+    return rec
+
+
+def _binary(items: list[int], bounds: list):
+    """The balanced binary tree over `items` (indices into bounds): an int for a leaf, else (left,
+    right, number of leaves): split at the median of the centres along the longest axis of their box."""
+    if len(items) == 1:
+        return items[0]
+    centres = np.array([0.5 * (bounds[j][0] + bounds[j][1]) for j in items])
+    axis = int(np.argmax(centres.max(0) - centres.min(0)))
+    order = [items[j] for j in np.argsort(centres[:, axis], kind='stable')]
+    half = len(order) // 2
+    return _binary(order[:half], bounds), _binary(order[half:], bounds), len(order)
+
+
+def _size(t) -> int:
+    return 1 if isinstance(t, int) else t[2]
+
+
+def _leaves(t) -> list[int]:
+    return [t] if isinstance(t, int) else _leaves(t[0]) + _leaves(t[1])
+
+
+def _children(t, width: int) -> list:
+    """The (up to `width`) children of the wide node that collapses binary node t: its subtrees,
+    opened largest first while there is room - for a balanced tree of width 2^k, its nodes k levels
+    down; in the binary order, so neighbours in space stay neighbours."""
+    kids = [t] if isinstance(t, int) else [t[0], t[1]]
+    while len(kids) < width:
+        inner = [i for i, c in enumerate(kids) if not isinstance(c, int)]
+        if not inner:
+            break
+        i = max(inner, key=lambda i: _size(kids[i]))
+        kids[i:i + 1] = [kids[i][0], kids[i][1]]
+    return kids
+
+
+def build_tree(lights: list[int], bounds: list, width: int = TREE_WIDTH) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(tree_f, tree_i, {light: (trail, depth)}) of a tree of nodes with up to `width` children over
+    `bounds` (one per light): the balanced binary tree (`_binary`) collapsed `log2 width` levels at a
+    time.  tree_f (nodes, LIGHT_TREE.width * width): each child's bounds, field-major (`tables`);
+    tree_i (nodes, width): a child's node, or -1 - its light for a leaf (an empty slot: phi 0, never
+    chosen); a light's trail holds its slot at depth d in bits [TRAIL_BITS d, TRAIL_BITS (d + 1)), its
+    depth is the number of choices on its way (1 for a light in the root)."""
+    if not 2 <= width <= 1 << TRAIL_BITS:
+        raise ValueError(f'light tree width {width} outside [2, {1 << TRAIL_BITS}]')
     rows_f, rows_i, leaves = [], [], {}
 
-    def node(items, trail, depth):
+    def node(t, trail, depth):
         i = len(rows_f)
-        lo, hi, phi, (w, cos_o), cos_e, two = _union([bounds[j] for j in items])
-        c = 0.5 * (lo + hi)
-        row = np.zeros(LIGHT_TREE.width)
-        LIGHT_TREE.write(row, C=c, HALF_DIAG=0.5 * float(np.linalg.norm(hi - lo)), RADIUS=float(np.linalg.norm(hi - c)),
-                         PHI=phi, W=w, COS_O=cos_o, SIN_O=math.sqrt(max(0.0, 1.0 - cos_o * cos_o)), COS_E=cos_e,
-                         TWO_SIDED=float(two))
-        rows_f.append(row)
-        rows_i.append([0, 0])
-        if len(items) == 1:
-            rows_i[i] = [lights[items[0]], 1]
-            leaves[lights[items[0]]] = (trail, depth)
-            return
-        centres = np.array([0.5 * (bounds[j][0] + bounds[j][1]) for j in items])
-        axis = int(np.argmax(centres.max(0) - centres.min(0)))
-        order = [items[j] for j in np.argsort(centres[:, axis], kind='stable')]
-        half = len(order) // 2
-        node(order[:half], trail, depth + 1)
-        rows_i[i] = [len(rows_f), 0]
-        node(order[half:], trail | (1 << depth), depth + 1)
+        row_f = np.zeros((LIGHT_TREE.width, width))
+        row_f[LIGHT_TREE.offset['HALF_DIAG']] = 1.0                 # (empty slots: no zero division)
+        rows_f.append(row_f)
+        rows_i.append(np.full(width, -1, np.int64))
+        for j, c in enumerate(_children(t, width)):
+            items = _leaves(c)
+            row_f[:, j] = _record(_union([bounds[k] for k in items]) if len(items) > 1 else bounds[items[0]])
+            slot = trail | (j << (TRAIL_BITS * depth))
+            if isinstance(c, int):
+                rows_i[i][j] = -1 - lights[c]
+                leaves[lights[c]] = (slot, depth + 1)
+            else:
+                rows_i[i][j] = node(c, slot, depth + 1)
+        return i
 
     if lights:
-        node(list(range(len(lights))), 0, 0)
-    return (np.array(rows_f, np.float64).reshape(-1, LIGHT_TREE.width), np.array(rows_i, np.int64).reshape(-1, 2),
-            leaves)
+        node(_binary(list(range(len(lights))), bounds), 0, 0)
+    return (np.array([r.reshape(-1) for r in rows_f], np.float64).reshape(-1, LIGHT_TREE.width * width),
+            np.array(rows_i, np.int64).reshape(-1, width), leaves)
 
 
-def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=()):
+def leaf_record(tree_f: np.ndarray, tree_i: np.ndarray, light: int) -> np.ndarray:
+    """The LIGHT_TREE fields (a view) of the leaf of `light` in a tree `build_tree` made."""
+    node, slot = np.argwhere(tree_i == -1 - light)[0]
+    return tree_f[node].reshape(LIGHT_TREE.width, tree_i.shape[1])[:, slot]
+
+
+def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=(), width: int = TREE_WIDTH):
     """(tree_f, tree_i, trail, depth, unbounded) of the scene's lights (`power`: one per light) and of
     `extra` lights (bounds as `light_bounds` gives them: the emissive surfaces, `surface_lights.py`),
-    numbered after the scene's."""
+    numbered after the scene's; `width`: children per node (`build_tree`)."""
     n = max(len(desc.lights) + len(extra), 1)
     idx, bounds = light_bounds(desc, li_f, power)
     idx += [len(desc.lights) + j for j in range(len(extra))]
     bounds += list(extra)
-    tree_f, tree_i, leaves = build_tree(idx, bounds)
+    tree_f, tree_i, leaves = build_tree(idx, bounds, width)
     trail = np.zeros(n, np.int64)
     depth = np.full(n, -1, np.int64)                   # -1: not in the tree
     for k, (t, d) in leaves.items():
         trail[k], depth[k] = t, d
-    if len(tree_f) == 0:                               # kernels index row 0: an empty, zero-power node
-        tree_f, tree_i = np.zeros((1, LIGHT_TREE.width)), np.array([[-1, 1]], np.int64)
+    if len(tree_f) == 0:                               # kernels index row 0: a node of empty slots
+        tree_f, tree_i = np.zeros((1, LIGHT_TREE.width * TREE_WIDTH)), np.full((1, TREE_WIDTH), -1, np.int64)
+        tree_f[0].reshape(LIGHT_TREE.width, TREE_WIDTH)[LIGHT_TREE.offset['HALF_DIAG']] = 1.0
     unbounded = [k for k, l in enumerate(desc.lights) if l.type in (D.DOME, D.DISTANT) and power[k] > 0.0]
     return tree_f, tree_i, trail, depth, np.array(unbounded, np.int64), len(idx)

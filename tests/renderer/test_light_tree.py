@@ -14,8 +14,9 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import ENTIRE, cone_union
 from rtc.renderer.kernel.light_sampling import sample_ld
-from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, choose_lights, importance, light_pmf,
+from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, choose_lights, importances, light_pmf,
                                            lone_light)
+from rtc.renderer.kernel.tables import T_C, T_COS_O, T_PHI, T_W, TRAIL_BITS, TREE_COLS, TREE_WIDTH
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -99,12 +100,16 @@ def test_a_dominant_light_is_sampled_at_every_vertex():
         built.close()
 
 
-def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
-    """Eight point lights on a line, far from the receiver (so importance ~ power), with powers that
-    make light 0's trail split three times: q = 0.24, 0.24 at the top, 0.008 (below SPLIT_DEEP) at the
-    bottom.  Light 1, past the third split's less likely child, has the expected count q3 times the
-    chance that fewer than two side samples were taken above, 1 - q1 q2 (from the importances, an
-    independent closed form), and stratified draws take it that often."""
+@pytest.mark.parametrize('width', [2, TREE_WIDTH])
+def test_a_third_split_counts_the_chance_that_two_side_samples_came_before(width):
+    """Binary nodes (width 2): eight point lights on a line, far from the receiver (so importance ~
+    power), with powers that make light 0's trail split three times: q = 0.24, 0.24 at the top, 0.008
+    (below SPLIT_DEEP) at the bottom.  Light 1, past the third split's less likely child, has the
+    expected count q3 times the chance that fewer than two side samples were taken above, 1 - q1 q2
+    (from the importances, an independent closed form), and stratified draws take it that often.  In
+    one node of eight (the default width) the same lights are eight children of the root, light 0 the
+    likeliest with 0.76^2 (1 - 0.008) = 0.573 (no split): each light's expected count is its share of
+    the power."""
     top, rest = 0.76, 0.24                            # root: lights 0-3 / 4-7
     pair01, pair23 = 0.76 * top, 0.24 * top           # lights 0-1 / 2-3
     powers = [(1 - 0.008) * pair01, 0.008 * pair01, pair23 / 2, pair23 / 2] + [rest / 4] * 4
@@ -113,18 +118,23 @@ def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
     desc = scene([D.Container('/', meshes=[quad(4.0, y=-50.0)])], [D.Material('/m')], lights,
                  D.Camera(path='/cam', matrix=look_at((3.5, 0.0, 1000.0), (3.5, 0.0, 0.0))))
     built = build(desc)
-    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), tree_width=width)
     try:
         p, n = (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)      # at the camera, facing the lights
         tf, ti = L.tree_f, L.tree_i
-        qs, node = [], 0
+        assert tf.shape == (len(ti), TREE_COLS * width) and ti.shape[1] == width
+        qs, node, w = [], 0, np.zeros(TREE_WIDTH)
         for level in range(L.depth[0]):               # light 0's trail: the q of each node on it
-            i0, i1 = importance(tf, node + 1, p, n), importance(tf, ti[node, 0], p, n)
-            qs.append(min(i0, i1) / (i0 + i1))
-            node = ti[node, 0] if (L.trail[0] >> level) & 1 else node + 1
-        assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
-        assert light_pmf(L, p, n, 0) == 1.0
-        assert light_pmf(L, p, n, 1) == pytest.approx(qs[2] * (1.0 - qs[0] * qs[1]), rel=1e-9)
+            total = importances(tf, node, p, n, w)
+            qs.append(1.0 - w.max() / total)
+            node = ti[node, (L.trail[0] >> (TRAIL_BITS * level)) & (width - 1)]
+        if width == 2:
+            assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
+            assert light_pmf(L, p, n, 0) == 1.0
+            assert light_pmf(L, p, n, 1) == pytest.approx(qs[2] * (1.0 - qs[0] * qs[1]), rel=1e-9)
+        else:                                         # one node, no split (q > SPLIT_BELOW): shares of the power
+            assert qs == pytest.approx([1.0 - powers[0]], rel=1e-3) and L.depth.tolist() == [1] * 8
+            assert [light_pmf(L, p, n, k) for k in range(8)] == pytest.approx(powers, rel=1e-3)
         pmf = [light_pmf(L, p, n, k) for k in range(8)]
         draws = 100000
         taken = 0
@@ -159,14 +169,46 @@ def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
 
 
 def test_a_point_lights_importance_is_power_over_distance_squared_times_the_cosine():
-    # one leaf: centre (1, 2, 0), radius 0, phi 10, every direction
-    tf = np.zeros((1, 13))
-    tf[0, 0:3] = (1.0, 2.0, 0.0)
-    tf[0, 5] = 10.0
-    tf[0, 6:9] = ENTIRE[0]
-    tf[0, 9], tf[0, 10], tf[0, 11] = -1.0, 0.0, 0.0
+    """A node whose child 3 is a point light (centre (1, 2, 0), radius 0, phi 10, every direction) and
+    whose other children are empty: the child's importance is phi / d^2 times the receiver's cosine,
+    the others' 0, and the sum is the child's."""
+    tf = np.zeros((1, TREE_COLS * TREE_WIDTH))
+    child = tf[0].reshape(TREE_COLS, TREE_WIDTH)      # field-major: row = field, column = child
+    child[T_C:T_C + 3, 3] = (1.0, 2.0, 0.0)
+    child[T_PHI, 3] = 10.0
+    child[T_W:T_W + 3, 3] = ENTIRE[0]
+    child[T_COS_O, 3] = -1.0
     p, n = (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)
-    assert importance(tf, 0, p, n) == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-12)
+    w = np.full(TREE_WIDTH, np.nan)
+    total = importances(tf, 0, p, n, w)
+    assert w[3] == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-12)
+    assert total == w[3] and np.all(np.delete(w, 3) == 0.0)
+
+
+def test_a_wide_tree_holds_every_light_once_on_its_trail():
+    """1000 point lights in nodes of eight: depth ceil(log8 1000) = 4 at most, every light reached by
+    following its trail's slots from the root, and each node's child bounds hold its children's."""
+    rng = np.random.default_rng(9)
+    lights = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(*rng.uniform(-10, 10, 3)),
+                      radiance=(float(rng.uniform(0.1, 2.0)),) * 3) for k in range(1000)]
+    desc = scene([D.Container('/', meshes=[quad(4.0)])], [D.Material('/m')], lights,
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 30.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+    try:
+        assert L.depth.min() >= 3 and L.depth.max() == 4
+        phi = lambda node, slot: L.tree_f[node].reshape(TREE_COLS, TREE_WIDTH)[T_PHI, slot]
+        for k in range(1000):
+            node, total = 0, None
+            for level in range(L.depth[k]):
+                slot = (L.trail[k] >> (TRAIL_BITS * level)) & (TREE_WIDTH - 1)
+                if total is not None:                 # the parent's phi is the sum of its children's
+                    assert total == pytest.approx(sum(phi(node, j) for j in range(TREE_WIDTH)), rel=1e-12)
+                total = phi(node, slot)
+                node = L.tree_i[node, slot]
+            assert node == -1 - k
+    finally:
+        built.close()
 
 
 def test_cone_union_holds_both_cones():

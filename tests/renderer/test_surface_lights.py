@@ -13,6 +13,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from rtc.renderer import description as D
 from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
+from rtc.renderer.host.light_tree import leaf_record
 from rtc.renderer.kernel.light_tree import SPLIT_BELOW, light_pmf
 from rtc.renderer.kernel.tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT,
                                         SLI_ELLIPSOID, SLI_FIRST, SLI_INST, SLI_INST_PRIM, SLI_MOVING,
@@ -222,8 +223,7 @@ def test_moving_placements_and_see_through_materials_are_lights():
         assert built.data.in_proto[row] == 1 and not np.all(built.data.in_xf[row] == built.data.in_xf[row, :1])
         assert L.sl_idx[L.sl_row[row]] == L.surface_first + mv
         # its tree bounds hold it over the shutter: x from -0.5 (open) to 1 + 2 (0.5) = 2 (close)
-        leaf = int(np.flatnonzero((L.tree_i[:, 1] == 1) & (L.tree_i[:, 0] == L.surface_first + mv))[0])
-        assert L.tree_f[leaf, T_C] + origin[0] == pytest.approx(0.75)
+        assert leaf_record(L.tree_f, L.tree_i, L.surface_first + mv)[T_C] + origin[0] == pytest.approx(0.75)
 
 
 def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
