@@ -26,7 +26,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W, TREE_WIDTH
+from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from .dome_sampling import dome_tables
 from .features import see_through
 from .light_tree import light_tree
@@ -105,21 +105,20 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
 
 
 def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, light_group: int,
-                data=None, tree_width: int = TREE_WIDTH) -> tuple:
+                data=None) -> tuple:
     """(PathLights record, the light shapes' geometry or None: `shape_geometry`) of a built scene (li_f:
     the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
     report in the path integrator's top level, `build.path_top`;
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
     whether a surface lets rays through (`features.see_through`; without `data`, whether a material
-    could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`).
-    tree_width: children per node of the light tree (`host/light_tree.build_tree`; 2..8)."""
+    could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`)."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
     dome_i, dome_cdf, dome_mean = dome_tables(desc)
     surf = surface_lights(data, len(desc.lights), _warner(desc)) if data is not None else None
     tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
-        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean), surf.bounds if surf else (), tree_width)
+        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean), surf.bounds if surf else ())
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)

@@ -12,21 +12,26 @@ facing away or below the horizon is rarely chosen, whatever its power.  Lights w
 (dome, distant) are chosen uniformly with probability n / (n + 1) (n of them; the tree the rest).
 
 Split: the lights are cut at the median of their centres along the longest axis of the centres'
-box (a balanced binary tree: depth log2 n), and the binary tree is collapsed into nodes of up to
-TREE_WIDTH (8) children, three binary levels at a time: a walk makes log8 n choices, each among eight
-children whose importances the kernel computes in one vectorised loop (1000 lights: 4 choices of 8
-instead of 10 of 2; `benchmarks/RESULTS.md`, "Many lights").  Each light's path from the root is kept
-as a trail of slots, so that the probability of a given light at a given point (MIS of BSDF-sampled
-rays that hit it) is one walk down that path.
+box (a balanced binary tree: depth log2 n).  Each light's path from the root is kept as a bit trail,
+so that the probability of a given light at a given point (MIS of BSDF-sampled rays that hit it) is
+one walk down that path.  The tree is stored in *blocks* of three levels: the 14 nodes below a node
+(its children, grandchildren and great-grandchildren), whose importances the kernel computes in one
+vectorised loop (float32: sixteen lanes) before it takes the three binary steps through them (1000
+lights: 4 loops instead of 20 importances one by one; `benchmarks/RESULTS.md`, "Many lights").  The
+choices are the binary tree's: nodes of eight children chosen among directly were faster still but
+measured 7-11 % more noise at equal samples (the importance of a small cluster is a looser guess
+than the binary walk's, which weighs it with its parents' bounds).
 
 Arrays (the `PathLights` fields `tree_f`, `tree_i`, `trail`, `depth`, `unbounded`):
-  tree_f float64 (nodes, tables.LIGHT_TREE * TREE_WIDTH): the bounds of each child of a node - centre,
-         half diagonal length, bounding-sphere radius, phi, w, cos and sin theta_o, cos theta_e,
-         two-sided (0/1) - field-major (column T_x * TREE_WIDTH + j: field x of child j)
-  tree_i int64 (nodes, TREE_WIDTH): a child's node, or -1 - its light for a leaf; -1 and phi 0 in an
-         empty slot
-  trail  int64 (lights,): the light's slot at depth d in bits [3d, 3d + 3); depth int64 (lights,): the
-         number of nodes on its way from the root (-1: not in the tree)
+  tree_f float32 (blocks, tables.LIGHT_TREE * TREE_SLOTS): the bounds of each slot of a block -
+         centre, half diagonal length, bounding-sphere radius, phi, w, cos and sin theta_o, cos theta_e,
+         two-sided (0/1) - field-major (column T_x * TREE_SLOTS + j: field x of slot j); the children of
+         slot s are in slots 2s + 2 and 2s + 3, the block root's in slots 0 and 1
+  tree_i int64 (blocks, TREE_SLOTS): -1 - light for a leaf; for an inner node of the block's last level
+         the block below it (> 0); 0 for the block's other inner nodes; -1 (phi 0) for an empty slot.
+         The root block has (height - 1) % 3 + 1 levels, so that every block below it has three
+  trail  int64 (lights,): bit d set = the second child at depth d; depth int64 (lights,): the number
+         of binary choices on its way (-1: not in the tree)
 """
 from __future__ import annotations
 
@@ -35,7 +40,7 @@ import math
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE, TRAIL_BITS, TREE_WIDTH
+from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE, TREE_LEVELS, TREE_SLOTS
 ENTIRE = (np.array([0.0, 0.0, 1.0]), -1.0)          # the cone of every direction
 
 
@@ -135,75 +140,77 @@ def _leaves(t) -> list[int]:
     return [t] if isinstance(t, int) else _leaves(t[0]) + _leaves(t[1])
 
 
-def _children(t, width: int) -> list:
-    """The (up to `width`) children of the wide node that collapses binary node t: its subtrees,
-    opened largest first while there is room - for a balanced tree of width 2^k, its nodes k levels
-    down; in the binary order, so neighbours in space stay neighbours."""
-    kids = [t] if isinstance(t, int) else [t[0], t[1]]
-    while len(kids) < width:
-        inner = [i for i, c in enumerate(kids) if not isinstance(c, int)]
-        if not inner:
-            break
-        i = max(inner, key=lambda i: _size(kids[i]))
-        kids[i:i + 1] = [kids[i][0], kids[i][1]]
-    return kids
+def _height(t) -> int:
+    return 0 if isinstance(t, int) else 1 + max(_height(t[0]), _height(t[1]))
 
 
-def build_tree(lights: list[int], bounds: list, width: int = TREE_WIDTH) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(tree_f, tree_i, {light: (trail, depth)}) of a tree of nodes with up to `width` children over
-    `bounds` (one per light): the balanced binary tree (`_binary`) collapsed `log2 width` levels at a
-    time.  tree_f (nodes, LIGHT_TREE.width * width): each child's bounds, field-major (`tables`);
-    tree_i (nodes, width): a child's node, or -1 - its light for a leaf (an empty slot: phi 0, never
-    chosen); a light's trail holds its slot at depth d in bits [TRAIL_BITS d, TRAIL_BITS (d + 1)), its
-    depth is the number of choices on its way (1 for a light in the root)."""
-    if not 2 <= width <= 1 << TRAIL_BITS:
-        raise ValueError(f'light tree width {width} outside [2, {1 << TRAIL_BITS}]')
+def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray, dict]:
+    """(tree_f, tree_i, {light: (trail, depth)}) of the balanced binary tree over `bounds` (one per
+    light, `_binary`), stored in blocks of TREE_LEVELS levels (`tables.LIGHT_TREE`): a block holds the
+    nodes below its root node down to TREE_LEVELS levels (the root block fewer, so that the deepest
+    blocks are full), so that the kernel computes their importances in one vectorised loop and walks
+    the levels from them.  tree_f (blocks, LIGHT_TREE.width * TREE_SLOTS): each slot's bounds,
+    field-major; tree_i (blocks, TREE_SLOTS): -1 - light for a leaf, for a node in the block's last
+    level the block (> 0) it is the root of, 0 for the block's other nodes, -1 for an empty slot (phi
+    0: never chosen).  A light's trail has bit d set where its way takes the second child at depth d;
+    its depth is the number of binary choices on that way (a lone light: 1, between it and an empty
+    slot)."""
     rows_f, rows_i, leaves = [], [], {}
 
-    def node(t, trail, depth):
-        i = len(rows_f)
-        row_f = np.zeros((LIGHT_TREE.width, width))
+    def block(t, trail, depth, levels):
+        b = len(rows_f)
+        row_f = np.zeros((LIGHT_TREE.width, TREE_SLOTS))
         row_f[LIGHT_TREE.offset['HALF_DIAG']] = 1.0                 # (empty slots: no zero division)
+        row_i = np.full(TREE_SLOTS, -1, np.int64)
         rows_f.append(row_f)
-        rows_i.append(np.full(width, -1, np.int64))
-        for j, c in enumerate(_children(t, width)):
-            items = _leaves(c)
-            row_f[:, j] = _record(_union([bounds[k] for k in items]) if len(items) > 1 else bounds[items[0]])
-            slot = trail | (j << (TRAIL_BITS * depth))
-            if isinstance(c, int):
-                rows_i[i][j] = -1 - lights[c]
-                leaves[lights[c]] = (slot, depth + 1)
+        rows_i.append(row_i)
+
+        def fill(slot, node, level, trail, depth):                   # node: at binary depth `depth`
+            items = _leaves(node)
+            row_f[:, slot] = _record(_union([bounds[k] for k in items]) if len(items) > 1 else bounds[items[0]])
+            if isinstance(node, int):
+                row_i[slot] = -1 - lights[node]
+                leaves[lights[node]] = (trail, depth)
+            elif level == levels - 1:
+                row_i[slot] = block(node, trail, depth, TREE_LEVELS)
             else:
-                rows_i[i][j] = node(c, slot, depth + 1)
-        return i
+                row_i[slot] = 0
+                fill(2 * slot + 2, node[0], level + 1, trail, depth + 1)
+                fill(2 * slot + 3, node[1], level + 1, trail | (1 << depth), depth + 1)
+
+        kids = (t,) if isinstance(t, int) else t[:2]                 # (a lone light: one child)
+        for j, c in enumerate(kids):
+            fill(j, c, 0, trail | (j << depth), depth + 1)
+        return b
 
     if lights:
-        node(_binary(list(range(len(lights))), bounds), 0, 0)
-    return (np.array([r.reshape(-1) for r in rows_f], np.float64).reshape(-1, LIGHT_TREE.width * width),
-            np.array(rows_i, np.int64).reshape(-1, width), leaves)
+        root = _binary(list(range(len(lights))), bounds)
+        block(root, 0, 0, (max(_height(root), 1) - 1) % TREE_LEVELS + 1)
+    return (np.array([r.reshape(-1) for r in rows_f], np.float32).reshape(-1, LIGHT_TREE.width * TREE_SLOTS),
+            np.array(rows_i, np.int64).reshape(-1, TREE_SLOTS), leaves)
 
 
 def leaf_record(tree_f: np.ndarray, tree_i: np.ndarray, light: int) -> np.ndarray:
     """The LIGHT_TREE fields (a view) of the leaf of `light` in a tree `build_tree` made."""
-    node, slot = np.argwhere(tree_i == -1 - light)[0]
-    return tree_f[node].reshape(LIGHT_TREE.width, tree_i.shape[1])[:, slot]
+    b, slot = np.argwhere(tree_i == -1 - light)[0]
+    return tree_f[b].reshape(LIGHT_TREE.width, TREE_SLOTS)[:, slot]
 
 
-def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=(), width: int = TREE_WIDTH):
+def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=()):
     """(tree_f, tree_i, trail, depth, unbounded) of the scene's lights (`power`: one per light) and of
     `extra` lights (bounds as `light_bounds` gives them: the emissive surfaces, `surface_lights.py`),
-    numbered after the scene's; `width`: children per node (`build_tree`)."""
+    numbered after the scene's."""
     n = max(len(desc.lights) + len(extra), 1)
     idx, bounds = light_bounds(desc, li_f, power)
     idx += [len(desc.lights) + j for j in range(len(extra))]
     bounds += list(extra)
-    tree_f, tree_i, leaves = build_tree(idx, bounds, width)
+    tree_f, tree_i, leaves = build_tree(idx, bounds)
     trail = np.zeros(n, np.int64)
     depth = np.full(n, -1, np.int64)                   # -1: not in the tree
     for k, (t, d) in leaves.items():
         trail[k], depth[k] = t, d
     if len(tree_f) == 0:                               # kernels index row 0: a node of empty slots
-        tree_f, tree_i = np.zeros((1, LIGHT_TREE.width * TREE_WIDTH)), np.full((1, TREE_WIDTH), -1, np.int64)
-        tree_f[0].reshape(LIGHT_TREE.width, TREE_WIDTH)[LIGHT_TREE.offset['HALF_DIAG']] = 1.0
+        tree_f, tree_i = np.zeros((1, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.full((1, TREE_SLOTS), -1, np.int64)
+        tree_f[0].reshape(LIGHT_TREE.width, TREE_SLOTS)[LIGHT_TREE.offset['HALF_DIAG']] = 1.0
     unbounded = [k for k, l in enumerate(desc.lights) if l.type in (D.DOME, D.DISTANT) and power[k] > 0.0]
     return tree_f, tree_i, trail, depth, np.array(unbounded, np.int64), len(idx)

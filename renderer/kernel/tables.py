@@ -65,13 +65,14 @@ TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4)])
 CAMERA = Table('C', [('M', 12), ('M1', 12), ('ORTHO', 1), ('HALF_W', 1), ('HALF_H', 1), ('OFF_X', 1),
                      ('OFF_Y', 1), ('LENS', 1), ('FOCUS', 1), ('NEAR', 1), ('FAR', 1), ('MOVING', 1)])
 
-# the path integrator's light tree (host/light_tree.py, kernel/light_tree.py): a child's bounds - centre,
+# the path integrator's light tree (host/light_tree.py, kernel/light_tree.py): a node's bounds - centre,
 # half the length of its box's diagonal, its bounding sphere's radius - power, the cone of emission
 # normals (axis, cos and sin of its half-angle), cos of the emission angle beyond the normals, two-sided.
-# A row of the tree is a node of up to TREE_WIDTH children, field-major: column T_x * TREE_WIDTH + j is
-# field x of child j (so that the kernel's loop over the children reads consecutive values: it vectorises);
-# a child's place in its node takes TRAIL_BITS bits of a light's trail
-TREE_WIDTH, TRAIL_BITS = 8, 3
+# A row of the tree is a *block*: the nodes of TREE_LEVELS levels of the binary tree below one node (its
+# children in slots 0-1, theirs in 2-5, theirs in 6-13: the children of slot s are in slots 2s + 2 and
+# 2s + 3), TREE_SLOTS slots, field-major: column T_x * TREE_SLOTS + j is field x of slot j (so that the
+# kernel's loop over a block's slots reads consecutive values: it vectorises)
+TREE_LEVELS, TREE_SLOTS = 3, 16
 LIGHT_TREE = Table('T', [('C', 3), ('HALF_DIAG', 1), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O', 1), ('SIN_O', 1),
                          ('COS_E', 1), ('TWO_SIDED', 1)])
 
@@ -104,6 +105,6 @@ WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR, WRAP_BLACK = 0, 1, 2, 3
 WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'black': WRAP_BLACK}
 
 __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE_F',
-           'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_WIDTH', 'TRAIL_BITS', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
+           'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_LEVELS', 'TREE_SLOTS', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_HAS_NORMALS',
            'GP_HAS_UVS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

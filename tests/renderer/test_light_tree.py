@@ -16,7 +16,7 @@ from rtc.renderer.host.light_tree import ENTIRE, cone_union
 from rtc.renderer.kernel.light_sampling import sample_ld
 from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, choose_lights, importances, light_pmf,
                                            lone_light)
-from rtc.renderer.kernel.tables import T_C, T_COS_O, T_PHI, T_W, TRAIL_BITS, TREE_COLS, TREE_WIDTH
+from rtc.renderer.kernel.tables import T_C, T_COS_O, T_PHI, T_W, TREE_COLS, TREE_LEVELS, TREE_SLOTS
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -100,16 +100,31 @@ def test_a_dominant_light_is_sampled_at_every_vertex():
         built.close()
 
 
-@pytest.mark.parametrize('width', [2, TREE_WIDTH])
-def test_a_third_split_counts_the_chance_that_two_side_samples_came_before(width):
-    """Binary nodes (width 2): eight point lights on a line, far from the receiver (so importance ~
-    power), with powers that make light 0's trail split three times: q = 0.24, 0.24 at the top, 0.008
-    (below SPLIT_DEEP) at the bottom.  Light 1, past the third split's less likely child, has the
-    expected count q3 times the chance that fewer than two side samples were taken above, 1 - q1 q2
-    (from the importances, an independent closed form), and stratified draws take it that often.  In
-    one node of eight (the default width) the same lights are eight children of the root, light 0 the
-    likeliest with 0.76^2 (1 - 0.008) = 0.573 (no split): each light's expected count is its share of
-    the power."""
+def _trail_qs(L, k, p, n):
+    """The probability q of the less likely child at each node on light k's trail (walking the blocks as
+    the kernel does: slot -1 is a block's root, the children of slot s are slots 2s + 2 and 2s + 3)."""
+    tf, ti = L.tree_f, L.tree_i
+    w = np.zeros(TREE_SLOTS)
+    block, slot, qs = 0, -1, []
+    importances(tf, block, p, n, w)
+    for level in range(L.depth[k]):
+        c0 = 2 * slot + 2
+        qs.append(min(w[c0], w[c0 + 1]) / (w[c0] + w[c0 + 1]))
+        s = c0 + ((L.trail[k] >> level) & 1)
+        if ti[block, s] > 0:
+            block, slot = ti[block, s], -1
+            importances(tf, block, p, n, w)
+        else:
+            slot = s
+    return qs
+
+
+def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
+    """Eight point lights on a line, far from the receiver (so importance ~ power), with powers that
+    make light 0's trail split three times: q = 0.24, 0.24 at the top, 0.008 (below SPLIT_DEEP) at the
+    bottom.  Light 1, past the third split's less likely child, has the expected count q3 times the
+    chance that fewer than two side samples were taken above, 1 - q1 q2 (from the importances, an
+    independent closed form), and stratified draws take it that often."""
     top, rest = 0.76, 0.24                            # root: lights 0-3 / 4-7
     pair01, pair23 = 0.76 * top, 0.24 * top           # lights 0-1 / 2-3
     powers = [(1 - 0.008) * pair01, 0.008 * pair01, pair23 / 2, pair23 / 2] + [rest / 4] * 4
@@ -118,23 +133,13 @@ def test_a_third_split_counts_the_chance_that_two_side_samples_came_before(width
     desc = scene([D.Container('/', meshes=[quad(4.0, y=-50.0)])], [D.Material('/m')], lights,
                  D.Camera(path='/cam', matrix=look_at((3.5, 0.0, 1000.0), (3.5, 0.0, 0.0))))
     built = build(desc)
-    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), tree_width=width)
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:
         p, n = (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)      # at the camera, facing the lights
-        tf, ti = L.tree_f, L.tree_i
-        assert tf.shape == (len(ti), TREE_COLS * width) and ti.shape[1] == width
-        qs, node, w = [], 0, np.zeros(TREE_WIDTH)
-        for level in range(L.depth[0]):               # light 0's trail: the q of each node on it
-            total = importances(tf, node, p, n, w)
-            qs.append(1.0 - w.max() / total)
-            node = ti[node, (L.trail[0] >> (TRAIL_BITS * level)) & (width - 1)]
-        if width == 2:
-            assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
-            assert light_pmf(L, p, n, 0) == 1.0
-            assert light_pmf(L, p, n, 1) == pytest.approx(qs[2] * (1.0 - qs[0] * qs[1]), rel=1e-9)
-        else:                                         # one node, no split (q > SPLIT_BELOW): shares of the power
-            assert qs == pytest.approx([1.0 - powers[0]], rel=1e-3) and L.depth.tolist() == [1] * 8
-            assert [light_pmf(L, p, n, k) for k in range(8)] == pytest.approx(powers, rel=1e-3)
+        qs = _trail_qs(L, 0, p, n)                    # light 0's trail: the q of each node on it
+        assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
+        assert light_pmf(L, p, n, 0) == 1.0
+        assert light_pmf(L, p, n, 1) == pytest.approx(qs[2] * (1.0 - qs[0] * qs[1]), rel=1e-9)
         pmf = [light_pmf(L, p, n, k) for k in range(8)]
         draws = 100000
         taken = 0
@@ -169,25 +174,26 @@ def test_a_rect_never_lights_what_is_behind_it_or_below_the_horizon():
 
 
 def test_a_point_lights_importance_is_power_over_distance_squared_times_the_cosine():
-    """A node whose child 3 is a point light (centre (1, 2, 0), radius 0, phi 10, every direction) and
-    whose other children are empty: the child's importance is phi / d^2 times the receiver's cosine,
-    the others' 0, and the sum is the child's."""
-    tf = np.zeros((1, TREE_COLS * TREE_WIDTH))
-    child = tf[0].reshape(TREE_COLS, TREE_WIDTH)      # field-major: row = field, column = child
-    child[T_C:T_C + 3, 3] = (1.0, 2.0, 0.0)
-    child[T_PHI, 3] = 10.0
-    child[T_W:T_W + 3, 3] = ENTIRE[0]
-    child[T_COS_O, 3] = -1.0
+    """A block whose slot 3 is a point light (centre (1, 2, 0), radius 0, phi 10, every direction) and
+    whose other slots are empty: the slot's importance is phi / d^2 times the receiver's cosine (to
+    float32's precision, the table's), the others' 0."""
+    tf = np.zeros((1, TREE_COLS * TREE_SLOTS), np.float32)
+    slots = tf[0].reshape(TREE_COLS, TREE_SLOTS)      # field-major: row = field, column = slot
+    slots[T_C:T_C + 3, 3] = (1.0, 2.0, 0.0)
+    slots[T_PHI, 3] = 10.0
+    slots[T_W:T_W + 3, 3] = ENTIRE[0]
+    slots[T_COS_O, 3] = -1.0
     p, n = (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)
-    w = np.full(TREE_WIDTH, np.nan)
-    total = importances(tf, 0, p, n, w)
-    assert w[3] == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-12)
-    assert total == w[3] and np.all(np.delete(w, 3) == 0.0)
+    w = np.full(TREE_SLOTS, np.nan)
+    importances(tf, 0, p, n, w)
+    assert w[3] == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-6)
+    assert np.all(np.delete(w, 3) == 0.0)
 
 
-def test_a_wide_tree_holds_every_light_once_on_its_trail():
-    """1000 point lights in nodes of eight: depth ceil(log8 1000) = 4 at most, every light reached by
-    following its trail's slots from the root, and each node's child bounds hold its children's."""
+def test_the_tree_is_stored_in_blocks_of_three_levels():
+    """1000 point lights: a balanced binary tree (depth 9 or 10), every light reached by following its
+    trail through the blocks, each node's phi the sum of its children's, a root block of one level
+    ((10 - 1) % 3 + 1: so that the blocks below it are full) and 1 + 2 + 16 + 128 blocks in all."""
     rng = np.random.default_rng(9)
     lights = [D.Light(path=f'/p{k}', type=D.POINT, matrix=translate(*rng.uniform(-10, 10, 3)),
                       radiance=(float(rng.uniform(0.1, 2.0)),) * 3) for k in range(1000)]
@@ -196,17 +202,22 @@ def test_a_wide_tree_holds_every_light_once_on_its_trail():
     built = build(desc)
     L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:
-        assert L.depth.min() >= 3 and L.depth.max() == 4
-        phi = lambda node, slot: L.tree_f[node].reshape(TREE_COLS, TREE_WIDTH)[T_PHI, slot]
+        assert TREE_LEVELS == 3 and set(L.depth.tolist()) == {9, 10} and len(L.tree_i) == 147
+        phi = L.tree_f.reshape(len(L.tree_f), TREE_COLS, TREE_SLOTS)[:, T_PHI].astype(np.float64)
+        assert np.count_nonzero(phi[0]) == 2 and np.all(L.tree_i[0, :2] > 0)
         for k in range(1000):
-            node, total = 0, None
+            block, slot = 0, -1
             for level in range(L.depth[k]):
-                slot = (L.trail[k] >> (TRAIL_BITS * level)) & (TREE_WIDTH - 1)
-                if total is not None:                 # the parent's phi is the sum of its children's
-                    assert total == pytest.approx(sum(phi(node, j) for j in range(TREE_WIDTH)), rel=1e-12)
-                total = phi(node, slot)
-                node = L.tree_i[node, slot]
-            assert node == -1 - k
+                s = 2 * slot + 2 + ((L.trail[k] >> level) & 1)
+                code = L.tree_i[block, s]
+                if level + 1 == L.depth[k]:
+                    assert code == -1 - k
+                elif code > 0:                        # a block's last level: its children in that block
+                    assert phi[block, s] == pytest.approx(phi[code, 0] + phi[code, 1], rel=1e-5)
+                    block, slot = code, -1
+                else:
+                    assert code == 0 and phi[block, s] == pytest.approx(phi[block, 2 * s + 2] + phi[block, 2 * s + 3], rel=1e-5)
+                    slot = s
     finally:
         built.close()
 

@@ -223,7 +223,7 @@ def test_moving_placements_and_see_through_materials_are_lights():
         assert built.data.in_proto[row] == 1 and not np.all(built.data.in_xf[row] == built.data.in_xf[row, :1])
         assert L.sl_idx[L.sl_row[row]] == L.surface_first + mv
         # its tree bounds hold it over the shutter: x from -0.5 (open) to 1 + 2 (0.5) = 2 (close)
-        assert leaf_record(L.tree_f, L.tree_i, L.surface_first + mv)[T_C] + origin[0] == pytest.approx(0.75)
+        assert leaf_record(L.tree_f, L.tree_i, L.surface_first + mv)[T_C] + origin[0] == pytest.approx(0.75, abs=1e-5)
 
 
 def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
