@@ -64,9 +64,10 @@ def importances(tf, block, p, n, w):
     bounding sphere subtends) and of the cosine at the receiver.  Inside the bounding sphere every
     direction is possible: both bounds are 1.  Nodes whose normals point everywhere (cos theta_o =
     -1: points, spheres, mixed nodes) skip the cone bound.  In float32, as the table is (sixteen lanes
-    of one AVX-512 register; the choices need no more), without branches (selects), and the number of
-    slots read from the table, not a constant, so that LLVM vectorises the loop instead of unrolling
-    it."""
+    of one AVX-512 register; the choices need no more: float32 can zero a node that lights p only where
+    its cosine bound is within ~1e-7 of 0, a share of its light of that order), without branches
+    (selects), and the number of slots read from the table, not a constant, so that LLVM vectorises the
+    loop instead of unrolling it."""
     nw = tf.shape[1] // TREE_COLS
     px, py, pz = np.float32(p[0]), np.float32(p[1]), np.float32(p[2])
     nx, ny, nz = np.float32(n[0]), np.float32(n[1]), np.float32(n[2])
