@@ -12,7 +12,8 @@ import numpy as np
 
 from rtc.renderer.kernel.jit import INLINE_JIT, JIT
 from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, intersect1,
-                                       intersect16, new_packet16, new_ray_buffer, occluded1, occluded16, set_ray16)
+                                       intersect16, intersect16_coherent, new_packet16, new_ray_buffer, occluded1,
+                                       occluded16, set_ray16)
 
 # rays per work item, and the prime stride that scatters work items over threads (numba hands each
 # thread a contiguous block of a prange; images are not uniform)
@@ -73,7 +74,7 @@ def _load_packet(packet, first, end, origins, dirs, tnear, tfar, time):
 
 
 @numba.njit(**JIT)
-def _trace_item16(scene, item, rays, out_t, out_ids):
+def _trace_item16(scene, item, rays, out_t, out_ids, coherent):
     """Work item `item` of `trace_rays16` (a function of its own: numba's parfor analysis of an
     inlined packet record in the prange body gives wrong results)."""
     origins, dirs, tnear, tfar, time = rays
@@ -83,7 +84,10 @@ def _trace_item16(scene, item, rays, out_t, out_ids):
     end = min(n, (item + 1) * CHUNK)
     for first in range(item * CHUNK, end, PACKET):
         lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
-        intersect16(scene, packet)
+        if coherent:
+            intersect16_coherent(scene, packet)
+        else:
+            intersect16(scene, packet)
         for j in range(lanes):
             r = first + j
             out_t[r] = f[TFAR * PACKET + j]
@@ -95,12 +99,13 @@ def _trace_item16(scene, item, rays, out_t, out_ids):
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
+def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, coherent=False):
     """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
-    e.g. 4x4 pixel tiles, for packets to pay off)."""
+    e.g. 4x4 pixel tiles, for packets to pay off); `coherent`: in Embree's coherent mode
+    (RTC_RAY_QUERY_FLAG_COHERENT, `trace.intersect16_coherent`)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, coherent)
 
 
 @numba.njit(**JIT)

@@ -317,16 +317,18 @@ def test_packets_agree_with_single_rays(dev):
     top, rays = _random_scene_and_rays(dev, 10_000)
     n = len(rays[0])
     results = []
-    for kernel in (embree_loops.trace_rays, embree_loops.trace_rays16):
+    for kernel, coherent in ((embree_loops.trace_rays, None), (embree_loops.trace_rays16, False),
+                             (embree_loops.trace_rays16, True)):   # packets, in the default and coherent modes
         t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
-        kernel(top.handle, *rays, t, ids)
+        kernel(top.handle, *rays, t, ids, *(() if coherent is None else (coherent,)))
         results.append((t, ids))
-    (t1, ids1), (t16, ids16) = results
+    (t1, ids1), *packets = results
     hit = ids1[:, 1] != INVALID
     assert 0.2 < hit.mean() < 0.9
-    same = (ids1 == ids16).all(1)
-    assert same.mean() > 0.999
-    np.testing.assert_allclose(t16[same], t1[same], rtol=1e-5)
+    for t16, ids16 in packets:
+        same = (ids1 == ids16).all(1)
+        assert same.mean() > 0.999
+        np.testing.assert_allclose(t16[same], t1[same], rtol=1e-5)
     assert (t1[~hit] == rays[3][~hit]).all()          # misses leave tfar
 
     occluded1, occluded16 = np.empty(n, bool), np.empty(n, bool)
