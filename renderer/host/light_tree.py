@@ -122,18 +122,14 @@ def _record(b) -> np.ndarray:
 
 def _binary(items: list[int], bounds: list):
     """The balanced binary tree over `items` (indices into bounds): an int for a leaf, else (left,
-    right, number of leaves): split at the median of the centres along the longest axis of their box."""
+    right): split at the median of the centres along the longest axis of their box."""
     if len(items) == 1:
         return items[0]
     centres = np.array([0.5 * (bounds[j][0] + bounds[j][1]) for j in items])
     axis = int(np.argmax(centres.max(0) - centres.min(0)))
     order = [items[j] for j in np.argsort(centres[:, axis], kind='stable')]
     half = len(order) // 2
-    return _binary(order[:half], bounds), _binary(order[half:], bounds), len(order)
-
-
-def _size(t) -> int:
-    return 1 if isinstance(t, int) else t[2]
+    return _binary(order[:half], bounds), _binary(order[half:], bounds)
 
 
 def _leaves(t) -> list[int]:
@@ -178,7 +174,7 @@ def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray,
                 fill(2 * slot + 2, node[0], level + 1, trail, depth + 1)
                 fill(2 * slot + 3, node[1], level + 1, trail | (1 << depth), depth + 1)
 
-        kids = (t,) if isinstance(t, int) else t[:2]                 # (a lone light: one child)
+        kids = (t,) if isinstance(t, int) else t                     # (a lone light: one child)
         for j, c in enumerate(kids):
             fill(j, c, 0, trail | (j << depth), depth + 1)
         return b
