@@ -37,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_render as BR                                          # noqa: E402
 from ab_render import load                                         # noqa: E402
 
+from benchmarks.embree_loops import trace_rays, trace_rays16, trace_rays16_coherent  # noqa: E402
 from rtc.renderer.host.embree import InstanceGroup                 # noqa: E402
 from rtc.renderer.host.render import RenderOptions, Renderer      # noqa: E402
 
@@ -88,10 +89,8 @@ def _trace(handle, rays, mode: str) -> float:
     n = len(o)
     t_out, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
     t0 = time.perf_counter()
-    if mode == 'single':
-        BR.trace_rays(handle, o, d, tn, tf, tm, t_out, ids)
-    else:
-        BR.trace_rays16(handle, o, d, tn, tf, tm, t_out, ids, mode == 'coherent')
+    trace = {'single': trace_rays, 'packets': trace_rays16, 'coherent': trace_rays16_coherent}[mode]
+    trace(handle, o, d, tn, tf, tm, t_out, ids)
     return time.perf_counter() - t0
 
 

@@ -99,13 +99,20 @@ def _trace_item16(scene, item, rays, out_t, out_ids, coherent):
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, coherent=False):
+def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
     """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
-    e.g. 4x4 pixel tiles, for packets to pay off); `coherent`: in Embree's coherent mode
-    (RTC_RAY_QUERY_FLAG_COHERENT, `trace.intersect16_coherent`)."""
+    e.g. 4x4 pixel tiles, for packets to pay off)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, coherent)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, False)
+
+
+@numba.njit(**JIT, parallel=True)
+def trace_rays16_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
+    """``trace_rays16`` in Embree's coherent mode (RTC_RAY_QUERY_FLAG_COHERENT, `trace.intersect16_coherent`)."""
+    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, True)
 
 
 @numba.njit(**JIT)

@@ -317,10 +317,9 @@ def test_packets_agree_with_single_rays(dev):
     top, rays = _random_scene_and_rays(dev, 10_000)
     n = len(rays[0])
     results = []
-    for kernel, coherent in ((embree_loops.trace_rays, None), (embree_loops.trace_rays16, False),
-                             (embree_loops.trace_rays16, True)):   # packets, in the default and coherent modes
+    for kernel in (embree_loops.trace_rays, embree_loops.trace_rays16, embree_loops.trace_rays16_coherent):
         t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
-        kernel(top.handle, *rays, t, ids, *(() if coherent is None else (coherent,)))
+        kernel(top.handle, *rays, t, ids)
         results.append((t, ids))
     (t1, ids1), *packets = results
     hit = ids1[:, 1] != INVALID
