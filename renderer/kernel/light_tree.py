@@ -144,7 +144,8 @@ def _walk(L, p, n, block, slot, pmf, u):
     tf = L.tree_f
     ti = L.tree_i
     w = _stack_doubles()
-    importances(tf, block, p, n, w)
+    if ti[block, slot] == 0:                         # an inner slot: its children are in this block
+        importances(tf, block, p, n, w)
     block, slot, light = _step(tf, ti, block, slot, p, n, w)
     while light < 0:
         c0 = 2 * slot + 2
