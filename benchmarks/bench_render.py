@@ -90,15 +90,18 @@ def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     return out
 
 
-def replay(handle: int, kind: str, rays, packets: bool) -> float:
-    """Seconds to trace `rays` on bare Embree (closest hit for camera/secondary, occlusion for shadow)."""
+def replay(handle: int, kind: str, rays, packets: bool, path: bool = True) -> float:
+    """Seconds to trace `rays` on bare Embree (closest hit for camera/secondary, occlusion for shadow);
+    path: the path integrator's rays, whose shadow rays carry its ray mask (`trace.MASK_SURFACES`: the
+    light shapes in its top level occlude nothing, and its traversal skips them), as the renderer traces
+    them."""
     o, d, tn, tf, tm = rays
     n = len(o)
     if n == 0:
         return 0.0
     t0 = time.perf_counter()
     if kind.startswith('shadow'):
-        (occlude_rays16 if packets else occlude_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.bool_))
+        (occlude_rays16 if packets else occlude_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path)
     else:
         (trace_rays16 if packets else trace_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.float32),
                                                   np.empty((n, 4), np.uint32))
@@ -124,11 +127,12 @@ def bench_scene(path: str, a) -> dict:
     row['warmup_s'] = time.perf_counter() - t0
 
     rays = None if a.no_replay else recorded_rays(r, opts, a.record_spp, a.record_cap)
-    handle = r.path_scene() if opts.integrator == 'path' else r.built.handle        # what the renderer traces
+    is_path = opts.integrator == 'path'
+    handle = r.path_scene() if is_path else r.built.handle             # what the renderer traces
     if rays is not None:
         for packets in (False, True):                                 # load/compile the replay kernels
             for kind, rk in rays.items():
-                replay(handle, kind, tuple(x[:64] for x in rk), packets)
+                replay(handle, kind, tuple(x[:64] for x in rk), packets, is_path)
     render_s, first_s, res = [], [], None
     ratios = {'single': [], 'traced': [], 'packets': []}
     traced_s = []
@@ -146,7 +150,7 @@ def bench_scene(path: str, a) -> dict:
         for packets in (False, True):
             for kind, rk in rays.items():
                 if len(rk[0]):
-                    rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets), 1e-12)
+                    rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets, is_path), 1e-12)
                     rates[kind, packets].append(rate[kind, packets])
         bare = {name: sum(n_of[k] / rate[k, p(k)] for k in KINDS if (k, False) in rate)
                 for name, p in (('single', lambda k: False), ('traced', lambda k: k in PACKETED),

@@ -11,9 +11,9 @@ import numba
 import numpy as np
 
 from rtc.renderer.kernel.jit import INLINE_JIT, JIT
-from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PACKET, PRIM_ID, TFAR, intersect1,
-                                       intersect16, intersect16_coherent, new_packet16, new_ray_buffer, occluded1,
-                                       occluded16, set_ray16)
+from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET,
+                                       PRIM_ID, TFAR, intersect1, intersect16, intersect16_coherent, new_packet16,
+                                       new_ray_buffer, occluded1, occluded1_surfaces, occluded16, set_ray16)
 
 # rays per work item, and the prime stride that scatters work items over threads (numba hands each
 # thread a contiguous block of a prange; images are not uniform)
@@ -49,16 +49,21 @@ def trace_rays(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
 
 
 @numba.njit(**JIT, parallel=True)
-def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded):
-    """Occlusion for n rays with rtcOccluded1 (arguments as ``trace_rays``); out_occluded bool (n,)."""
+def occlude_rays(scene, origins, dirs, tnear, tfar, time, out_occluded, surfaces=False):
+    """Occlusion for n rays with rtcOccluded1 (arguments as ``trace_rays``); out_occluded bool (n,);
+    surfaces: with the ray mask of the path integrator's shadow rays (`trace.MASK_SURFACES`: light shapes
+    occlude nothing), else every geometry occludes."""
     n = origins.shape[0]
     n_items = (n + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
         item = _work_item(i, n_items)
         f, u = new_ray_buffer()
         for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
-            out_occluded[r] = occluded1(scene, f, u, (origins[r, 0], origins[r, 1], origins[r, 2]),
-                                        (dirs[r, 0], dirs[r, 1], dirs[r, 2]), tnear[r], tfar[r], time[r])
+            o, d = (origins[r, 0], origins[r, 1], origins[r, 2]), (dirs[r, 0], dirs[r, 1], dirs[r, 2])
+            if surfaces:
+                out_occluded[r] = occluded1_surfaces(scene, f, u, o, d, tnear[r], tfar[r], time[r])
+            else:
+                out_occluded[r] = occluded1(scene, f, u, o, d, tnear[r], tfar[r], time[r])
 
 
 @numba.njit(**INLINE_JIT)
@@ -116,22 +121,25 @@ def trace_rays16_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_id
 
 
 @numba.njit(**JIT)
-def _occlude_item16(scene, item, rays, out_occluded):
-    """Work item `item` of `occlude_rays16`."""
+def _occlude_item16(scene, item, rays, out_occluded, mask):
+    """Work item `item` of `occlude_rays16` (ray mask `mask`)."""
     origins, dirs, tnear, tfar, time = rays
     n = origins.shape[0]
     packet = new_packet16()
     end = min(n, (item + 1) * CHUNK)
     for first in range(item * CHUNK, end, PACKET):
         lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
+        for j in range(lanes):
+            packet.u[MASK * PACKET + j] = mask
         occluded16(scene, packet)
         for j in range(lanes):
             out_occluded[first + j] = packet.f[TFAR * PACKET + j] == -np.inf
 
 
 @numba.njit(**JIT, parallel=True)
-def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded):
+def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded, surfaces=False):
     """``occlude_rays`` with rtcOccluded16 on consecutive groups of 16 rays."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+    mask = MASK_SURFACES if surfaces else MASK_ALL
     for i in numba.prange(n_items):
-        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded)
+        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded, mask)

@@ -342,6 +342,30 @@ def test_packets_agree_with_single_rays(dev):
     assert (single == ids0).all()
 
 
+def test_shadow_replay_carries_the_path_integrators_mask(dev):
+    """The benchmarks' occlusion loops with `surfaces`: light shapes (mask MASK_LIGHT_SHAPES) occlude
+    nothing, as for the renderer's shadow rays; without it they do."""
+    def quad(x0, x1, z):
+        v = np.array([[x0, -1, z], [x1, -1, z], [x1, 1, z], [x0, 1, z]], np.float32)
+        return dev.prototype_scene([(v, np.array([[0, 1, 2], [0, 2, 3]], np.uint32))], [])
+    protos = [quad(-1.0, 0.0, 2.0), quad(0.5, 1.0, 1.0)]         # a surface; a light shape in front
+    eye = np.eye(4, dtype=np.float32)[None, None, :3]
+    top = dev.top_scene(protos, [InstanceGroup(np.zeros(1, np.uint32), eye), InstanceGroup(np.ones(1, np.uint32), eye)],
+                        masks=[trace.MASK_SURFACES, trace.MASK_LIGHT_SHAPES])
+    n = 1000
+    x = (np.arange(n) + 0.5) / n * 2.0 - 1.0                      # none on an edge
+    origins = np.stack([x, np.zeros(n), np.zeros(n)], 1).astype(np.float32)
+    dirs = np.tile(np.array([0, 0, 1], np.float32), (n, 1))
+    rays = (origins, dirs, np.zeros(n, np.float32), np.full(n, 10, np.float32), np.zeros(n, np.float32))
+    for loop in (embree_loops.occlude_rays, embree_loops.occlude_rays16):
+        for surfaces, expected in ((False, (x < 0) | (x > 0.5)), (True, x < 0)):
+            out = np.empty(n, bool)
+            loop(top.handle, *rays, out, surfaces)
+            assert (out == expected).all(), (loop, surfaces)
+    for s in [top] + protos:
+        s.close()
+
+
 def test_cached_kernels_load_in_a_fresh_process(tmp_path):
     script = textwrap.dedent("""
         import numpy as np
