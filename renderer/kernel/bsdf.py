@@ -32,6 +32,7 @@ from .. import description as D
 from .features import (B_BLINN_PHONG, B_BLINN_PHONG_MIRRORED, B_COOL_TO_WARM, B_DIELECTRIC, B_GLAZE, B_LAMBERTIAN,
                        B_MIRROR, B_MIRRORING, B_PHONG, B_GGX, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS)
 from .jit import SHADING_INLINE_JIT as _JIT
+from .vecmath import turn
 
 Bsdf = namedtuple('Bsdf', ['kd', 'coupled', 'cool', 'gooch', 'f0', 'f90', 'alpha', 'cc', 'cc_alpha',
                            'ks', 'exp', 'mirror', 'eta'])
@@ -108,9 +109,9 @@ def sample_vndf(wo, alpha, u1, u2):
         t1 = (1.0, 0.0, 0.0)
     t2 = (vy * t1[2] - vz * t1[1], vz * t1[0] - vx * t1[2], vx * t1[1] - vy * t1[0])
     r = math.sqrt(u1)
-    phi = 2.0 * math.pi * u2
-    p1 = r * math.cos(phi)
-    p2 = r * math.sin(phi)
+    cp, sp = turn(u2)
+    p1 = r * cp
+    p2 = r * sp
     s = 0.5 * (1.0 + vz)
     p2 = (1.0 - s) * math.sqrt(max(0.0, 1.0 - p1 * p1)) + s * p2
     p3 = math.sqrt(max(0.0, 1.0 - p1 * p1 - p2 * p2))
@@ -257,16 +258,16 @@ def sample(b, wo, ul, u1, u2):
         return (-wo[0], -wo[1], wo[2]), (b.mirror[0] * q, b.mirror[1] * q, b.mirror[2] * q), 0.0, True
     if k == L_DIFFUSE:
         r = math.sqrt(u1)
-        phi = 2.0 * math.pi * u2
-        wi = (r * math.cos(phi), r * math.sin(phi), math.sqrt(max(0.0, 1.0 - u1)))
+        cp, sp = turn(u2)
+        wi = (r * cp, r * sp, math.sqrt(max(0.0, 1.0 - u1)))
     elif F_MODELS & B_GGX and (k == L_GGX or k == L_CLEARCOAT):
         h = sample_vndf(wo, b.alpha if k == L_GGX else b.cc_alpha, u1, u2)
         wi = _reflect(wo, h)
     elif F_MODELS & B_PHONG:
         ct = u1 ** (1.0 / (b.exp + 1.0))
         st = math.sqrt(max(0.0, 1.0 - ct * ct))
-        phi = 2.0 * math.pi * u2
-        wi = _reflect(wo, (st * math.cos(phi), st * math.sin(phi), ct))
+        cp, sp = turn(u2)
+        wi = _reflect(wo, (st * cp, st * sp, ct))
     else:
         return dead
     if wi[2] <= 0.0:

@@ -18,7 +18,7 @@ from .features import F_LENS, F_ORTHO, F_TIME
 from .jit import INLINE_JIT, JIT
 from .tables import (C_FAR, C_FOCUS, C_HALF_H, C_HALF_W, C_LENS, C_M, C_M1, C_MOVING, C_NEAR,  # noqa: F401
                      C_OFF_X, C_OFF_Y, C_ORTHO, CAM_COLS, CAMERA)
-from .vecmath import normalize
+from .vecmath import normalize, sincos_quarter
 
 # the table's columns (C_*) are declared in tables.CAMERA
 
@@ -57,18 +57,6 @@ def camera_table(cam: D.Camera, width: int, height: int, origin: np.ndarray, *,
 
 
 @nb.njit(**INLINE_JIT)
-def _sincos_quarter(x):
-    """(sin x, cos x) for |x| <= pi/4: Taylor polynomials to x^15 / x^16 (truncation < 1e-16),
-    a few multiply-adds instead of two libm calls."""
-    x2 = x * x
-    s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (
-        1.0 / 362880.0 + x2 * (-1.0 / 39916800.0 + x2 * (1.0 / 6227020800.0 + x2 * (-1.0 / 1307674368000.0))))))))
-    c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (
-        -1.0 / 3628800.0 + x2 * (1.0 / 479001600.0 + x2 * (-1.0 / 87178291200.0 + x2 * (1.0 / 20922789888000.0))))))))
-    return s, c
-
-
-@nb.njit(**INLINE_JIT)
 def _concentric_disk(u, v):
     """Shirley-Chiu concentric map of [0,1)^2 onto the unit disk (keeps stratification).  The
     angle is pi/4 * (b/a) or pi/2 - pi/4 * (a/b): one quarter-range sine/cosine either way."""
@@ -77,9 +65,9 @@ def _concentric_disk(u, v):
     if a == 0.0 and b == 0.0:
         return 0.0, 0.0
     if abs(a) > abs(b):
-        sn, cs = _sincos_quarter((math.pi / 4.0) * (b / a))
+        sn, cs = sincos_quarter((math.pi / 4.0) * (b / a))
         return a * cs, a * sn
-    sn, cs = _sincos_quarter((math.pi / 4.0) * (a / b))
+    sn, cs = sincos_quarter((math.pi / 4.0) * (a / b))
     return b * sn, b * cs
 
 
@@ -139,7 +127,7 @@ def _concentric_disk_select(u, v):
     big = abs(a) > abs(b)
     r = a if big else b
     q = b if big else a
-    sn, cs = _sincos_quarter((math.pi / 4.0) * (q / r))       # 0/0 only at the centre, masked below
+    sn, cs = sincos_quarter((math.pi / 4.0) * (q / r))       # 0/0 only at the centre, masked below
     zero = a == 0.0 and b == 0.0
     lx = 0.0 if zero else (r * cs if big else r * sn)
     ly = 0.0 if zero else (r * sn if big else r * cs)

@@ -35,7 +35,7 @@ from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
-from .vecmath import cross, dot, normalize, onb, sub, to_world, toward
+from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
 INF = math.inf
 # A rect light whose solid angle seen from the shading point lies in [SPHERICAL_MIN, SPHERICAL_MAX] sr is
 # sampled uniformly in that solid angle (`spherical_rect`); outside it uniformly by area: a far light's
@@ -73,9 +73,9 @@ def _plane(lf, k):
 def _cone(w, cos_max, u1, u2):
     cos_t = 1.0 - u1 * (1.0 - cos_max)
     sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
-    phi = 2.0 * math.pi * u2
+    cp, sp = turn(u2)
     tt, bb = onb(w)
-    return to_world((sin_t * math.cos(phi), sin_t * math.sin(phi), cos_t), tt, bb, w)
+    return to_world((sin_t * cp, sin_t * sp, cos_t), tt, bb, w)
 
 
 @nb.njit(**_JIT)
@@ -102,9 +102,9 @@ def sample_ld(S, L, k, p, n, u1, u2):
             b = (u2 - 0.5) * lf[k, LF_H]
         else:
             r = lf[k, LF_RADIUS] * math.sqrt(u1)
-            phi = 2.0 * math.pi * u2
-            a = r * math.cos(phi)
-            b = r * math.sin(phi)
+            cp, sp = turn(u2)
+            a = r * cp
+            b = r * sp
         q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
         return area_ld(p, q, (-nrm[0], -nrm[1], -nrm[2]), lf[k, LF_AREA], Lr)
     if F_LIGHTS & B_CYLINDER and (F_LIGHTS == B_CYLINDER or t == D.CYLINDER):
@@ -134,10 +134,10 @@ def sample_ld(S, L, k, p, n, u1, u2):
             wi, pdf = sample_dome_texture(S, L, k, u1, u2)
         else:
             r = math.sqrt(u1)
-            phi = 2.0 * math.pi * u2
+            cp, sp = turn(u2)
             z = math.sqrt(max(0.0, 1.0 - u1))
             tt, bb = onb(n)
-            wi = to_world((r * math.cos(phi), r * math.sin(phi), z), tt, bb, n)
+            wi = to_world((r * cp, r * sp, z), tt, bb, n)
             pdf = z / math.pi
         if not pdf > 0.0:
             return NONE

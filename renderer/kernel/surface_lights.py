@@ -29,7 +29,7 @@ from .light_tree import light_pmf
 from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST,
                      SLI_INST, SLI_INST_PRIM, SLI_MOVING)
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, instance_transform
-from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, xform_point
+from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
 
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
@@ -74,8 +74,8 @@ def _triangle_point(L, j, u1, u2):
 def _unit_sphere(u1, u2):
     z = 1.0 - 2.0 * u1
     rr = math.sqrt(max(0.0, 1.0 - z * z))
-    phi = 2.0 * math.pi * u2
-    return rr * math.cos(phi), rr * math.sin(phi), z
+    cp, sp = turn(u2)
+    return rr * cp, rr * sp, z
 
 
 @nb.njit(**_JIT)

@@ -99,6 +99,35 @@ def reflect(d, n):
 
 
 @nb.njit(**INLINE_JIT)
+def sincos_quarter(x):
+    """(sin x, cos x) for |x| <= pi/4: Taylor polynomials to x^15 / x^16 (truncation < 1e-16),
+    a few multiply-adds instead of two libm calls."""
+    x2 = x * x
+    s = x * (1.0 + x2 * (-1.0 / 6.0 + x2 * (1.0 / 120.0 + x2 * (-1.0 / 5040.0 + x2 * (
+        1.0 / 362880.0 + x2 * (-1.0 / 39916800.0 + x2 * (1.0 / 6227020800.0 + x2 * (-1.0 / 1307674368000.0))))))))
+    c = 1.0 + x2 * (-0.5 + x2 * (1.0 / 24.0 + x2 * (-1.0 / 720.0 + x2 * (1.0 / 40320.0 + x2 * (
+        -1.0 / 3628800.0 + x2 * (1.0 / 479001600.0 + x2 * (-1.0 / 87178291200.0 + x2 * (1.0 / 20922789888000.0))))))))
+    return s, c
+
+
+@nb.njit(**INLINE_JIT)
+def turn(u):
+    """(cos 2 pi u, sin 2 pi u) for u in [0, 1) (a sample's azimuth): u is reduced exactly to the
+    nearest quarter turn k / 4, the rest x in [-pi/4, pi/4] goes through `sincos_quarter` (error
+    ~1e-16, as libm's), and the quadrant k swaps and signs them without a branch.  The path
+    integrator's samplers call it instead of libm's sincos, which took 8 % of a diffuse path render
+    (perf, Cornell box: a call per bounce and light sample)."""
+    q = 4.0 * u
+    k = math.floor(q + 0.5)
+    s, c = sincos_quarter((q - k) * (0.5 * math.pi))      # q - k is exact
+    m = np.int64(k) & 3
+    swap = (m & 1) == 1
+    cs = s if swap else c
+    sn = c if swap else s
+    return (1 - 2 * (((m + 1) >> 1) & 1)) * cs, (1 - 2 * ((m >> 1) & 1)) * sn
+
+
+@nb.njit(**INLINE_JIT)
 def onb(n):
     """Orthonormal tangents (t, b) of unit n (Duff et al. 2017, branchless)."""
     s = 1.0 if n[2] >= 0.0 else -1.0

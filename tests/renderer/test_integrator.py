@@ -257,13 +257,29 @@ def test_partial_packets_and_many_lights_stay_bit_identical():
 def test_lens_sincos_polynomial_matches_libm():
     """The thin-lens disk map's quarter-range sine/cosine polynomial is exact to double rounding,
     and the concentric map keeps every lens sample on the unit disk."""
-    from rtc.renderer.kernel.cameras import _concentric_disk, _sincos_quarter
+    from rtc.renderer.kernel.cameras import _concentric_disk
+    from rtc.renderer.kernel.vecmath import sincos_quarter
     xs = np.linspace(-math.pi / 4, math.pi / 4, 20001)
     for x in xs:
-        s, c = _sincos_quarter(x)
+        s, c = sincos_quarter(x)
         assert abs(s - math.sin(x)) <= 2.3e-16 and abs(c - math.cos(x)) <= 2.3e-16
     rng = np.random.default_rng(3)
     for u, v in rng.random((5000, 2)):
         x, y = _concentric_disk(u, v)
         r = max(abs(2 * u - 1), abs(2 * v - 1))          # the concentric map's radius
         assert abs(math.hypot(x, y) - r) <= 1e-15
+
+
+def test_turn_is_cos_and_sin_of_a_full_turn_to_double_rounding():
+    """`vecmath.turn(u)` (the path samplers' azimuths, without libm) equals (cos 2 pi u, sin 2 pi u)
+    computed in extended precision, on every quadrant and its edges."""
+    from rtc.renderer.kernel.vecmath import turn
+    rng = np.random.default_rng(5)
+    us = np.concatenate([np.arange(0, 1, 1 / 512), rng.random(5000),
+                         [np.nextafter(1.0, 0.0), np.nextafter(0.25, 0.0), np.nextafter(0.5, 1.0), 5e-324]])
+    two_pi = 2 * np.longdouble('3.14159265358979323846264338327950288')
+    for u in us:
+        c, s = turn(float(u))
+        a = np.longdouble(u) * two_pi
+        assert abs(c - np.cos(a)) <= 2.5e-16 and abs(s - np.sin(a)) <= 2.5e-16, u
+    assert turn(0.25) == (0.0, 1.0) and turn(0.5) == (-1.0, 0.0) and turn(0.75) == (0.0, -1.0)
