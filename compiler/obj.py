@@ -17,6 +17,8 @@ from typing import Optional
 
 import numpy as np
 
+FLOAT_MAX = float(np.finfo(np.float32).max)      # USD's point3f, normal3f, texCoord2f (and the renderer's)
+
 
 class ObjError(Exception):
     """The file cannot be used; `line` is the 1-based OBJ line (None for the whole file)."""
@@ -137,6 +139,10 @@ def _table(bodies: list[bytes], width: int, key: str, lines: _LineFinder) -> np.
     finite = np.isfinite(values).all(axis=1)
     if not finite.all():
         raise ObjError(f"'{key}' has a NaN or infinite value", lines.line_of(key, int(np.argmin(finite))))
+    within = (np.abs(values) <= FLOAT_MAX).all(axis=1)
+    if not within.all():
+        raise ObjError(f"'{key}' has a value beyond the 32-bit float range (magnitude at most {FLOAT_MAX:.7g}) "
+                       "in which USD and the renderer hold it", lines.line_of(key, int(np.argmin(within))))
     return values
 
 

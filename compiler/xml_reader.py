@@ -55,6 +55,11 @@ COURSE_DEFAULTS: dict[str, object] = {
 _ALL_GEOMETRY = {c for names in _GEOMETRY_CHILDREN.values() for c in names}
 _CUBE_FACES = ("posX", "negX", "posY", "negY", "posZ", "negZ")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+# the largest magnitude of a 32-bit float, in which USD attributes (points, sizes, colours,
+# intensities) and the renderer hold the scene's values: beyond it a value would become infinity; the
+# transforms' operations and times are doubles (xformOps, time codes), so only their product is checked
+FLOAT_MAX = 3.4028234663852886e38
+_DOUBLES = frozenset({"translate", "scale", "rotate", "transform"})
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False, load_dtd=False,
                           dtd_validation=False, remove_comments=True, remove_pis=True)
 
@@ -698,19 +703,28 @@ class _Reader:
         if not all(map(math.isfinite, values)):
             self.diags.error(f"{where}NaN and infinity are not allowed: {text!r}", line, element)
             return None
+        if element not in _DOUBLES and max(map(abs, values), default=0.0) > FLOAT_MAX:
+            self.diags.error(f"{where}{text!r} is beyond the 32-bit float range (magnitude at most "
+                             f"{FLOAT_MAX:.7g}) in which USD and the renderer hold it", line, element)
+            return None
         return values
 
 
 def _finite_numbers(text: Optional[str], count: int) -> Optional[tuple[float, ...]]:
-    """`count` finite numbers, or None for anything else (then `_Reader._numbers_text` reads the
-    text again and reports the problem).  This is the path of every well-formed value, so it does
-    no bookkeeping: no line lookup, no message; one sum tests all values for NaN and infinity
-    (an overflowing sum only sends the value down the exact path)."""
+    """`count` finite numbers within the 32-bit float range (FLOAT_MAX), or None for anything else (then
+    `_Reader._numbers_text` reads the text again and reports the problem).  This is the path of every
+    well-formed value, so it does no bookkeeping: no line lookup, no message; one sum tests all values
+    for NaN and infinity (an overflowing sum only sends the value down the exact path), and only text
+    that can hold a value beyond FLOAT_MAX (an exponent, or 39 characters) pays for a sum of magnitudes."""
     try:
         values = tuple(map(float, text.split()))
     except (ValueError, AttributeError):
         return None
-    return values if len(values) == count and math.isfinite(sum(values)) else None
+    if len(values) != count:
+        return None
+    if len(text) < 39 and "e" not in text and "E" not in text:
+        return values if math.isfinite(sum(values)) else None
+    return values if sum(map(abs, values)) <= FLOAT_MAX else None
 
 
 def _greedy(text: str, count: int) -> Optional[tuple[float, ...]]:

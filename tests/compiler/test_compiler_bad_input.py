@@ -17,6 +17,11 @@ CASES = {
     "wrong arity": (sphere(c="0 0"), 2, ["11: error: <center>: expected 3 numbers, got 2: '0 0'"]),
     "nan": (sphere(r="NaN"), 2, ["11: error: <radius>: NaN and infinity are not allowed: 'NaN'"]),
     "inf": (sphere(c="0 inf 0"), 2, ["11: error: <center>: NaN and infinity are not allowed: '0 inf 0'"]),
+    "beyond float": (sphere(r="1e39"), 2, ["11: error: <radius>: '1e39' is beyond the 32-bit float range "
+                                           "(magnitude at most 3.402823e+38) in which USD and the renderer hold it"]),
+    "beyond float, one of three": (sphere(c="0 -3.5e38 0"), 2,
+                                   ["11: error: <center>: '0 -3.5e38 0' is beyond the 32-bit float range "
+                                    "(magnitude at most 3.402823e+38) in which USD and the renderer hold it"]),
     "negative radius": (sphere(r="-1"), 2, ["11: error: <radius>: must be positive, got -1"]),
     "dangling shader": (sphere().replace('ref="grey"', 'ref="gray"'), 2,
                         ["11: error: <shader>: unknown shader 'gray' (defined before this point: grey)",

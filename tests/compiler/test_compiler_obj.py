@@ -44,6 +44,9 @@ def test_uvs_and_normals_are_indexed_per_corner(tmp_path):
     ("v 0 0 0\nv 1 0 0\nf 1 2\n", "a face needs at least 3 corners", 3),
     ("v 0 0 0\nv 1 x 0\nv 0 1 0\nf 1 2 3\n", "'v' needs 3 numbers", 2),
     ("v 0 0 0\nv 1 nan 0\nv 0 1 0\nf 1 2 3\n", "'v' has a NaN or infinite value", 2),
+    ("v 0 0 0\nv 1 0 0\nv 0 1 0\nvn 0 0 1e39\nf 1//1 2//1 3//1\n",
+     "'vn' has a value beyond the 32-bit float range (magnitude at most 3.402823e+38) in which USD and the "
+     "renderer hold it", 4),
     ("v 0 0 0\n", "no faces ('f' lines) in the file", None),
     ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 a\n", "a face corner is not of the form v, v/vt, v/vt/vn or v//vn", 4),
 ])
