@@ -15,8 +15,13 @@ from .scene import Box, Cylinder, Geometry, Scene, Sphere, Triangle
 from .transforms import compose_many, singular_mask
 
 
+# the largest magnitude of a 32-bit float: the renderer places instances with float32 matrices (Embree's)
+FLOAT_MAX = float(np.finfo(np.float32).max)
+
+
 def check_transforms(scene: Scene, diags: Diagnostics) -> None:
-    """Error (naming the <transform> line) for every transform that is singular or not finite."""
+    """Error (naming the <transform> line) for every transform that is singular, not finite, or has an
+    entry beyond the 32-bit float range (a placement the renderer could not hold: ~1e39 away)."""
     transforms = [t for obj in (*scene.shapes, *scene.placements) for t in obj.motion.samples]
     transforms += [p.transform for p in scene.used_prototypes() if p.transform is not None]
     if not transforms:
@@ -24,11 +29,16 @@ def check_transforms(scene: Scene, diags: Diagnostics) -> None:
     with np.errstate(over="ignore", invalid="ignore"):
         matrices = compose_many([t.ops for t in transforms])
     finite = np.isfinite(matrices).all(axis=(1, 2))
+    within = finite & (np.abs(np.where(np.isfinite(matrices), matrices, 0.0)) <= FLOAT_MAX).all(axis=(1, 2))
     singular = np.zeros(len(transforms), bool)
-    singular[finite] = singular_mask(matrices[finite])
-    for i in np.flatnonzero(~finite | singular):
+    singular[within] = singular_mask(matrices[within])
+    for i in np.flatnonzero(~within | singular):
         if not finite[i]:
             diags.error("the transform is not finite (its product overflows)", transforms[i].line,
+                        "transform")
+        elif not within[i]:
+            diags.error(f"the transform is beyond the 32-bit float range (an entry of magnitude above "
+                        f"{FLOAT_MAX:.7g}) in which the renderer places instances", transforms[i].line,
                         "transform")
         else:
             diags.error("the transform is singular (a zero scale or collapsed axes): it has no inverse",

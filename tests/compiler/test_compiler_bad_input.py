@@ -38,6 +38,9 @@ CASES = {
                         "it has no inverse"]),
     "overflowing transform": (sphere(x="<transform><scale>1e200 1 1</scale><scale>1e200 1 1</scale></transform>"), 2,
                               ["11: error: <transform>: the transform is not finite (its product overflows)"]),
+    "transform beyond float": (sphere(x="<transform><translate>1e200 0 0</translate></transform>"), 2,
+                               ["11: error: <transform>: the transform is beyond the 32-bit float range (an entry of "
+                                "magnitude above 3.402823e+38) in which the renderer places instances"]),
     "bad axis": (sphere(x='<transform><rotate axis="x">30</rotate></transform>'), 2,
                  ["11: error: <rotate>: attribute 'axis': 'x' is not one of 'X', 'Y', 'Z'"]),
     "no shader": ('<shape name="s" type="sphere"><center>0 0 0</center><radius>1</radius></shape>', 2,
