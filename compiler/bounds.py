@@ -11,12 +11,8 @@ import numpy as np
 
 from .diagnostics import Diagnostics
 from .obj import ObjMesh
-from .scene import Box, Cylinder, Geometry, Scene, Sphere, Triangle
+from .scene import FLOAT_MAX, Box, Cylinder, Geometry, Scene, Sphere, Triangle
 from .transforms import compose_many, singular_mask
-
-
-# the largest magnitude of a 32-bit float: the renderer places instances with float32 matrices (Embree's)
-FLOAT_MAX = float(np.finfo(np.float32).max)
 
 
 def check_transforms(scene: Scene, diags: Diagnostics) -> None:

@@ -17,7 +17,7 @@ from typing import Optional
 
 import numpy as np
 
-FLOAT_MAX = float(np.finfo(np.float32).max)      # USD's point3f, normal3f, texCoord2f (and the renderer's)
+from .scene import FLOAT_MAX
 
 
 class ObjError(Exception):

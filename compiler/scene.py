@@ -14,6 +14,10 @@ import numpy as np
 
 from .transforms import Op, compose
 
+# the largest magnitude of a 32-bit float, in which USD attributes (points, normals, sizes, colours,
+# intensities) and the renderer (Embree's float32 instance matrices) hold a scene's values
+FLOAT_MAX = float(np.finfo(np.float32).max)
+
 Vec3 = tuple[float, float, float]
 
 

@@ -19,7 +19,7 @@ from lxml import etree
 
 from . import schema
 from .diagnostics import CompileError, Diagnostics
-from .scene import (Box, Camera, Cylinder, Environment, Light, MeshFile, Motion, Placement,
+from .scene import (FLOAT_MAX, Box, Camera, Cylinder, Environment, Light, MeshFile, Motion, Placement,
                     Prototype, Scene, Shader, Shape, Sphere, Texture, Transform, Triangle, Vec3)
 from .transforms import Op
 
@@ -55,10 +55,8 @@ COURSE_DEFAULTS: dict[str, object] = {
 _ALL_GEOMETRY = {c for names in _GEOMETRY_CHILDREN.values() for c in names}
 _CUBE_FACES = ("posX", "negX", "posY", "negY", "posZ", "negZ")
 _NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
-# the largest magnitude of a 32-bit float, in which USD attributes (points, sizes, colours,
-# intensities) and the renderer hold the scene's values: beyond it a value would become infinity; the
-# transforms' operations and times are doubles (xformOps, time codes), so only their product is checked
-FLOAT_MAX = 3.4028234663852886e38
+# values are checked against scene.FLOAT_MAX (beyond it they would become infinities), except the
+# transforms' operations and times: doubles (xformOps, time codes), of which only the product is checked
 _DOUBLES = frozenset({"translate", "scale", "rotate", "transform"})
 _PARSER = etree.XMLParser(resolve_entities=False, no_network=True, huge_tree=False, load_dtd=False,
                           dtd_validation=False, remove_comments=True, remove_pis=True)
