@@ -178,8 +178,11 @@ def evaluate(b, wo, wi):
     if wo[2] <= 0.0 or wi[2] <= 0.0:
         return BLACK, 0.0
     p = lobe_probabilities(b, wo[2])
-    h = _half(wo, wi)
-    vh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
+    h = (0.0, 0.0, 1.0)
+    vh = 1.0
+    if (F_MODELS & B_GGX and b.alpha > 0.0) or (F_CLEARCOAT and b.cc > 0.0) or (F_MODELS & B_PHONG and b.exp >= 0.0):
+        h = _half(wo, wi)                      # the half vector only where a microfacet lobe needs it
+        vh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
     ci = wi[2]
     fr = 0.0
     fg = 0.0
@@ -227,6 +230,15 @@ def evaluate(b, wo, wi):
 
 
 @nb.njit(**_JIT)
+def _lambert_only(b, p):
+    """True if plain Lambert (albedo kd, not the coupled or cool-to-warm diffuse) is the BSDF's only
+    non-delta lobe and no delta lobe can be chosen: a sample's weight is then kd and its pdf cos_i / pi,
+    with no mixture to evaluate (the course's Lambertian model, a diffuse-only material)."""
+    return (b.alpha <= 0.0 and b.cc <= 0.0 and b.exp < 0.0 and p[L_MIRROR] == 0.0 and p[L_DIELECTRIC] == 0.0
+            and not (F_MODELS & B_COOL_TO_WARM and b.gooch) and not (F_MODELS & B_PREVIEW_SURFACE and b.coupled))
+
+
+@nb.njit(**_JIT)
 def _pick(p, u):
     """Lobe index for u in [0, 1) and u rescaled to [0, 1) within the chosen lobe's interval."""
     acc = 0.0
@@ -260,6 +272,8 @@ def sample(b, wo, ul, u1, u2):
         r = math.sqrt(u1)
         cp, sp = turn(u2)
         wi = (r * cp, r * sp, math.sqrt(max(0.0, 1.0 - u1)))
+        if _lambert_only(b, p) and wi[2] > 0.0:     # f cos / pdf = kd exactly: no mixture to evaluate
+            return wi, b.kd, wi[2] / math.pi, False
     elif F_MODELS & B_GGX and (k == L_GGX or k == L_CLEARCOAT):
         h = sample_vndf(wo, b.alpha if k == L_GGX else b.cc_alpha, u1, u2)
         wi = _reflect(wo, h)

@@ -161,6 +161,25 @@ def test_lambert_is_albedo_over_pi():
     assert pdf == pytest.approx(0.8 / np.pi)
 
 
+@pytest.mark.parametrize('name', CASES)
+@pytest.mark.parametrize('cos_o', ANGLES)
+def test_a_sample_reports_what_evaluate_gives_for_its_direction(name, cos_o):
+    """The weight and pdf `sample` returns for a non-delta direction are f cos / pdf and pdf of the whole
+    mixture at that direction, as `evaluate` computes them (Lambert alone takes a shortcut: weight kd)."""
+    b = CASES[name]
+    wo = wo_of(cos_o)
+    wi, w, pdf, delta = _draw(b, wo, 2000, 11)
+    checked = 0
+    for k in range(len(wi)):
+        if delta[k] or pdf[k] == 0.0:
+            continue
+        f, p = B.evaluate(b, wo, tuple(wi[k]))
+        assert pdf[k] == pytest.approx(p, rel=1e-12), (k, pdf[k], p)
+        np.testing.assert_allclose(w[k], np.array(f) / p, rtol=1e-12)
+        checked += 1
+    assert checked > 1000
+
+
 def test_ggx_visible_normal_pdf_is_normalised_over_the_sphere():
     """Integral over all of h of D(h) G1(wo) max(0, wo.h) / cos_o = 1 (Heitz 2018, eq. 2)."""
     for alpha in (0.05, 0.3, 0.8):
