@@ -236,15 +236,18 @@ def _byte_tables(v: np.ndarray) -> np.ndarray:
 
 SOBOL_DIRECTIONS = _sobol_directions(4)
 SOBOL_BYTES = _byte_tables(SOBOL_DIRECTIONS)
+SOBOL_BYTES_U32 = SOBOL_BYTES.astype(np.uint32)
 
 
 @njit(**INLINE_JIT)
 def sobol(index, dim):
     """Unscrambled 32-bit Sobol' value of ``index`` in dimension ``dim`` (0..3), natural order:
-    the XOR of the direction numbers of the set bits of ``index`` (generator-matrix product)."""
+    the XOR of the direction numbers of the set bits of ``index`` (generator-matrix product).  The
+    table is uint32 (16 KiB: half the cache lines of int64 entries)."""
     index &= _M32
-    return (SOBOL_BYTES[dim, 0, index & 0xFF] ^ SOBOL_BYTES[dim, 1, (index >> 8) & 0xFF]
-            ^ SOBOL_BYTES[dim, 2, (index >> 16) & 0xFF] ^ SOBOL_BYTES[dim, 3, index >> 24])
+    t = SOBOL_BYTES_U32
+    return np.int64(t[dim, 0, index & 0xFF] ^ t[dim, 1, (index >> 8) & 0xFF]
+                    ^ t[dim, 2, (index >> 16) & 0xFF] ^ t[dim, 3, index >> 24])
 
 
 @intrinsic
@@ -287,11 +290,19 @@ def nested_uniform_scramble(x, seed):
 
 
 @njit(**INLINE_JIT)
+def _sobol_owen(index, seed, d):
+    """Dim d of the Owen-scrambled Sobol' point at shuffled ``index``: `nested_uniform_scramble` of
+    `sobol(index, d)`.  Dim 0's generator matrix is the bit reversal, which the scramble's first step
+    undoes: reverse(LK(index)), no table look-ups."""
+    if d == 0:
+        return reverse_bits(laine_karras_permutation(index, hash_combine(seed, 0)))
+    return nested_uniform_scramble(sobol(index, d), hash_combine(seed, d))
+
+
+@njit(**INLINE_JIT)
 def _sobol_owen_2d(index, seed, d0):
     """Dims d0, d0+1 of the Owen-scrambled Sobol' point at shuffled ``index``."""
-    x = nested_uniform_scramble(sobol(index, d0), hash_combine(seed, d0))
-    y = nested_uniform_scramble(sobol(index, d0 + 1), hash_combine(seed, d0 + 1))
-    return to_unit(x), to_unit(y)
+    return to_unit(_sobol_owen(index, seed, d0)), to_unit(_sobol_owen(index, seed, d0 + 1))
 
 
 @njit(**INLINE_JIT)
@@ -354,8 +365,6 @@ def _owen_u(x, seed):
     x = np.uint32(x ^ np.uint32(x * np.uint32(0x53A22864)))
     return _bitreverse_u32(x)
 
-
-SOBOL_BYTES_U32 = SOBOL_BYTES.astype(np.uint32)
 
 
 @njit(**INLINE_JIT)
@@ -501,7 +510,7 @@ def sample_1d(sampler, seed, pixel, index, spp, dim):
             pseed = hash3(seed, pixel, dim)
             d0 = 0
         shuffled = nested_uniform_scramble(index, pseed)
-        return to_unit(nested_uniform_scramble(sobol(shuffled, d0), hash_combine(pseed, d0)))
+        return to_unit(_sobol_owen(shuffled, pseed, d0))
     if F_SAMPLERS & B_CMJ and (F_SAMPLERS == B_CMJ or sampler == CMJ):
         return sample_2d(sampler, seed, pixel, index, spp, dim)[1]
     return sample_2d(sampler, seed, pixel, index, spp, dim)[0]

@@ -187,6 +187,19 @@ def test_reverse_bits_reverses_the_low_32_bits():
     assert S.reverse_bits((7 << 40) | 1) == 0x80000000
 
 
+def test_scrambled_dimension_0_without_tables_is_the_tables_value():
+    """`_sobol_owen` computes dimension 0 as reverse(LK(index)) (its generator matrix, the bit reversal,
+    cancels the scramble's first reversal): the same 32-bit values as the table product scrambled, for
+    every dimension, at indices spread over the whole 32-bit range."""
+    rng = np.random.default_rng(8)
+    for idx, seed in zip(rng.integers(0, 2**32, 3000), rng.integers(0, 2**32, 3000)):
+        idx, seed = int(idx), int(seed)
+        assert S.sobol(idx, 0) == S.reverse_bits(idx)
+        for d in range(4):
+            assert S._sobol_owen(idx, seed, d) == S.nested_uniform_scramble(S.sobol(idx, d),
+                                                                            S.hash_combine(seed, d))
+
+
 def test_nested_uniform_scramble_maps_aligned_blocks_to_aligned_blocks():
     for m in (0, 3, 6):
         for seed in (1, 0xDEADBEEF, 12345):
