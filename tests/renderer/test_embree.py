@@ -154,9 +154,9 @@ def test_an_instance_array_of_one_instance_instances_its_own_prototype(dev):
     t, _, _, ids = probe(top, [[0.5, 0.25, 5.0], [10.5, 0.25, 5.0]], [0, 0, -1])
     np.testing.assert_allclose(t, [7.0, 6.0], rtol=1e-6)            # squares at z = -2 and z = -1
     assert ids[:, 2].tolist() == [0, 1]
-    assert _occluded(top.handle, [0.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0, surfaces_only=True)
-    assert not _occluded(top.handle, [10.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0, surfaces_only=True)
-    assert _occluded(top.handle, [10.5, 0.25, 5.0], [0.0, 0.0, -1.0], 10.0)
+    assert _occluded(top.handle, (0.5, 0.25, 5.0), (0.0, 0.0, -1.0), 10.0, surfaces_only=True)
+    assert not _occluded(top.handle, (10.5, 0.25, 5.0), (0.0, 0.0, -1.0), 10.0, surfaces_only=True)
+    assert _occluded(top.handle, (10.5, 0.25, 5.0), (0.0, 0.0, -1.0), 10.0)
 
 
 def test_ng_is_in_object_space(dev):
