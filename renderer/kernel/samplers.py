@@ -366,7 +366,6 @@ def _owen_u(x, seed):
     return _bitreverse_u32(x)
 
 
-
 @njit(**INLINE_JIT)
 def _sobol_u(tables, index, dim):
     return np.uint32(tables[dim, 0, index & np.uint32(0xFF)] ^ tables[dim, 1, (index >> np.uint32(8)) & np.uint32(0xFF)]
