@@ -2,9 +2,10 @@
 "Importance Sampling of Many Lights with Adaptive Tree Splitting"; pbrt-v4's BVHLightSampler).
 
 Every light with a position (point, rect, disk, sphere, cylinder) is a leaf with its *light bounds*:
-a box, its phi (its largest radiant intensity, `light_selection.light_phi`), the cone of its emission normals (axis w, half-angle theta_o) and the angle
-theta_e beyond the normals up to which it emits (pi/2 for every UsdLux light: they emit into a
-hemisphere about each normal, or everywhere).  Inner nodes bound their children (union of boxes,
+a box, its phi (its largest radiant intensity, `light_selection.light_phi`) and the cone of its emission
+normals (axis w, half-angle theta_o), one-sided or two-sided.  Every light emits up to pi/2 beyond its
+normals (pbrt's theta_e: UsdLux lights emit into a hemisphere about each normal, or everywhere; rtc reads
+no ShapingAPI cone), so theta_e is a constant of the kernel, not a bound.  Inner nodes bound their children (union of boxes,
 sum of phis, union of cones).  At a shading point the kernel walks from the root to a leaf, taking
 each child with probability proportional to its *importance* there: phi / distance^2, times
 bounds on the cosines at the light and at the receiver (`kernel/light_tree.py`), so a light far away,
@@ -24,8 +25,8 @@ than the binary walk's, which weighs it with its parents' bounds).
 
 Arrays (the `PathLights` fields `tree_f`, `tree_i`, `trail`, `depth`, `unbounded`):
   tree_f float32 (blocks, tables.LIGHT_TREE * TREE_SLOTS): the bounds of each slot of a block -
-         centre, half diagonal length, bounding-sphere radius, phi, w, cos and sin theta_o, cos theta_e,
-         two-sided (0/1) - field-major (column T_x * TREE_SLOTS + j: field x of slot j); the children of
+         centre, bounding-sphere radius (half the box's diagonal), phi, w, cos and sin theta_o (the
+         sine's sign bit set for a two-sided node: 10 fields, 10 cache lines a block) - field-major (column T_x * TREE_SLOTS + j: field x of slot j); the children of
          slot s are in slots 2s + 2 and 2s + 3, the block root's in slots 0 and 1
   tree_i int64 (blocks, TREE_SLOTS): -1 - light for a leaf; for an inner node of the block's last level
          the block below it (> 0); 0 for the block's other inner nodes; -1 (phi 0) for an empty slot.
@@ -71,7 +72,7 @@ def cone_union(a, b):
 
 
 def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
-    """(indices of the bounded lights, list of (lo, hi, phi, cone, cos_e, two_sided)) of the scene's
+    """(indices of the bounded lights, list of (lo, hi, phi, cone, two_sided)) of the scene's
     lights with a position, in world (camera-relative) coordinates of the light table."""
     idx, bounds = [], []
     for k, l in enumerate(desc.lights):
@@ -96,7 +97,7 @@ def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
             lo, hi = c - r, c + r
             cone = ENTIRE
         idx.append(k)
-        bounds.append((lo, hi, float(power[k]), cone, 0.0, False))
+        bounds.append((lo, hi, float(power[k]), cone, False))
     return idx, bounds
 
 
@@ -106,17 +107,16 @@ def _union(items):
     cone = items[0][3]
     for b in items[1:]:
         cone = cone_union(cone, b[3])
-    return lo, hi, sum(b[2] for b in items), cone, min(b[4] for b in items), any(b[5] for b in items)
+    return lo, hi, sum(b[2] for b in items), cone, any(b[4] for b in items)
 
 
 def _record(b) -> np.ndarray:
-    """The LIGHT_TREE fields of bounds b = (lo, hi, phi, (w, cos_o), cos_e, two_sided)."""
-    lo, hi, phi, (w, cos_o), cos_e, two = b
-    c = 0.5 * (lo + hi)
+    """The LIGHT_TREE fields of bounds b = (lo, hi, phi, (w, cos_o), two_sided)."""
+    lo, hi, phi, (w, cos_o), two = b
     rec = np.zeros(LIGHT_TREE.width)
-    LIGHT_TREE.write(rec, C=c, HALF_DIAG=0.5 * float(np.linalg.norm(hi - lo)), RADIUS=float(np.linalg.norm(hi - c)),
-                     PHI=phi, W=w, COS_O=cos_o, SIN_O=math.sqrt(max(0.0, 1.0 - cos_o * cos_o)), COS_E=cos_e,
-                     TWO_SIDED=float(two))
+    sin_o = math.sqrt(max(0.0, 1.0 - cos_o * cos_o))
+    LIGHT_TREE.write(rec, C=0.5 * (lo + hi), RADIUS=0.5 * float(np.linalg.norm(hi - lo)), PHI=phi, W=w, COS_O=cos_o,
+                     SIN_O=math.copysign(sin_o, -1.0 if two else 1.0))
     return rec
 
 
@@ -155,8 +155,7 @@ def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray,
 
     def block(t, trail, depth, levels):
         b = len(rows_f)
-        row_f = np.zeros((LIGHT_TREE.width, TREE_SLOTS))
-        row_f[LIGHT_TREE.offset['HALF_DIAG']] = 1.0                 # (empty slots: no zero division)
+        row_f = np.zeros((LIGHT_TREE.width, TREE_SLOTS))            # (empty slots: phi 0)
         row_i = np.full(TREE_SLOTS, -1, np.int64)
         rows_f.append(row_f)
         rows_i.append(row_i)
@@ -207,6 +206,5 @@ def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, ex
         trail[k], depth[k] = t, d
     if len(tree_f) == 0:                               # kernels index row 0: a node of empty slots
         tree_f, tree_i = np.zeros((1, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.full((1, TREE_SLOTS), -1, np.int64)
-        tree_f[0].reshape(LIGHT_TREE.width, TREE_SLOTS)[LIGHT_TREE.offset['HALF_DIAG']] = 1.0
     unbounded = [k for k, l in enumerate(desc.lights) if l.type in (D.DOME, D.DISTANT) and power[k] > 0.0]
     return tree_f, tree_i, trail, depth, np.array(unbounded, np.int64), len(idx)

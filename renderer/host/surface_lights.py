@@ -101,7 +101,7 @@ def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
             if cos_o >= 0.0:
                 cone = (w, min(cos_o, 1.0))
         pts = tri[r].reshape(-1, 3)
-        out.append((pts.min(0), pts.max(0), float(phi[r]), cone, 0.0, True))
+        out.append((pts.min(0), pts.max(0), float(phi[r]), cone, True))
     return out
 
 
@@ -198,7 +198,7 @@ def _ball_rows(balls: list, first: int):
                 projected = np.pi * s[0] * s[1]
             sl_f.append(f)
             sl_i.append(i)
-            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (emit[r] @ _LUM)), ENTIRE, 0.0, True))
+            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (emit[r] @ _LUM)), ENTIRE, True))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
     return sl_f, sl_i, bounds, row_lights
 
@@ -234,7 +234,7 @@ def _moving_bounds(obj: np.ndarray, sphere: bool, xf: np.ndarray, lum: float):
         lo, hi = world.min(axis=(0, 1, 2)), world.max(axis=(0, 1, 2))
         cr = np.cross(world[:, :, 1] - world[:, :, 0], world[:, :, 2] - world[:, :, 0])
         phi = float(np.max(0.5 * np.linalg.norm(cr, axis=2).sum(1)))
-    return lo, hi, phi * lum, ENTIRE, 0.0, True
+    return lo, hi, phi * lum, ENTIRE, True
 
 
 def _mover_rows(data, movers: list, first: int, n_tri: int):

@@ -24,8 +24,7 @@ from numba.extending import intrinsic
 from numba.np.arrayobj import make_array, populate_array
 
 from .jit import SHADING_INLINE_JIT as _JIT
-from .tables import (T_C, T_COS_E, T_COS_O, T_HALF_DIAG, T_PHI, T_RADIUS, T_SIN_O, T_TWO_SIDED, T_W, TREE_COLS,
-                     TREE_SLOTS)
+from .tables import T_C, T_COS_O, T_PHI, T_RADIUS, T_SIN_O, T_W, TREE_COLS, TREE_SLOTS
 
 ONE_MINUS = 0.99999994
 NO_SAMPLE = (-1, 0.0)
@@ -59,11 +58,13 @@ def _stack_doubles(typingctx):
 def importances(tf, block, p, n, w):
     """The importance of each node of block `block` (a row of tf = PathLights.tree_f) at point p with
     normal n, into w (TREE_SLOTS doubles).  A node's importance: its power over the squared distance
-    (at least its half diagonal), times upper bounds of the cosine at the lights (the
-    angle between the direction to p and the cone of emission normals, less the angle the node's
-    bounding sphere subtends) and of the cosine at the receiver.  Inside the bounding sphere every
-    direction is possible: both bounds are 1.  Nodes whose normals point everywhere (cos theta_o =
-    -1: points, spheres, mixed nodes) skip the cone bound.  In float32, as the table is (sixteen lanes
+    (at least its bounding radius, as pbrt's half diagonal), times upper bounds of the cosine at the
+    lights (the angle between the direction to p and the cone of emission normals, less the angle the
+    node's bounding sphere subtends; zero beyond pi/2, where no light emits) and of the cosine at the
+    receiver.  Inside the bounding sphere every direction is possible: both bounds are 1.  Nodes whose
+    normals point everywhere (cos theta_o = -1: points, spheres, mixed nodes) skip the cone bound.  Ten
+    float32 fields a slot (ten cache lines a block: the loads are the loop's cost, more than its
+    arithmetic; `benchmarks/RESULTS.md`).  In float32, as the table is (sixteen lanes
     of one AVX-512 register; the choices need no more: float32 can zero a node that lights p only where
     its cosine bound is within ~1e-7 of 0, a share of its light of that order), without branches
     (selects), and the number of slots read from the table, not a constant, so that LLVM vectorises the
@@ -80,15 +81,16 @@ def importances(tf, block, p, n, w):
         # squares: a walk takes one block after the other, so this chain's latency is its cost
         a = _ONE32 / dd
         inv = math.sqrt(dd) * a                      # 1 / distance
-        falloff = tf[block, T_PHI * nw + j] / max(dd, tf[block, T_HALF_DIAG * nw + j])
         r = tf[block, T_RADIUS * nw + j]
+        falloff = tf[block, T_PHI * nw + j] / max(dd, r)
         sin_b2 = min(r * r * a, _ONE32)
         sin_b = math.sqrt(sin_b2)
         cos_b = math.sqrt(_ONE32 - sin_b2)
         cos_o = tf[block, T_COS_O * nw + j]
-        sin_o = tf[block, T_SIN_O * nw + j]
+        so = tf[block, T_SIN_O * nw + j]             # its sign bit: two-sided
+        sin_o = abs(so)
         dw = tf[block, T_W * nw + j] * dx + tf[block, (T_W + 1) * nw + j] * dy + tf[block, (T_W + 2) * nw + j] * dz
-        dw = abs(dw) if tf[block, T_TWO_SIDED * nw + j] != _ZERO32 else dw
+        dw = abs(dw) if math.copysign(_ONE32, so) < _ZERO32 else dw
         cos_w = dw * inv
         sin_w = math.sqrt(max(_ZERO32, _ONE32 - dw * dw * a))
         within = cos_w > cos_o                       # theta_x = max(0, theta_w - theta_o)
@@ -102,7 +104,7 @@ def importances(tf, block, p, n, w):
         cos_i = _ONE32 if ci >= cos_b else ci * cos_b + sin_i * sin_b           # cos(max(0, theta_i - theta_b))
         inside = dd <= r * r
         v = falloff * (_ONE32 if inside else cos_p * cos_i)
-        v = _ZERO32 if (cos_p <= tf[block, T_COS_E * nw + j] and not inside) else v
+        v = _ZERO32 if (cos_p <= _ZERO32 and not inside) else v    # beyond pi/2 of every normal
         w[j] = v if v > _ZERO32 else _ZERO32         # (and 0 for NaN)
 
 

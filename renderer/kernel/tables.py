@@ -66,15 +66,15 @@ CAMERA = Table('C', [('M', 12), ('M1', 12), ('ORTHO', 1), ('HALF_W', 1), ('HALF_
                      ('OFF_Y', 1), ('LENS', 1), ('FOCUS', 1), ('NEAR', 1), ('FAR', 1), ('MOVING', 1)])
 
 # the path integrator's light tree (host/light_tree.py, kernel/light_tree.py): a node's bounds - centre,
-# half the length of its box's diagonal, its bounding sphere's radius - power, the cone of emission
-# normals (axis, cos and sin of its half-angle), cos of the emission angle beyond the normals, two-sided.
+# its bounding sphere's radius (half its box's diagonal) - power, the cone of emission normals (axis, cos
+# and sin of its half-angle; the sine's sign bit set: two-sided).  Every light emits up to pi/2 from its
+# normals (UsdLux: a hemisphere about each normal, or everywhere), so the emission angle is no field.
 # A row of the tree is a *block*: the nodes of TREE_LEVELS levels of the binary tree below one node (its
 # children in slots 0-1, theirs in 2-5, theirs in 6-13: the children of slot s are in slots 2s + 2 and
 # 2s + 3), TREE_SLOTS slots, field-major: column T_x * TREE_SLOTS + j is field x of slot j (so that the
 # kernel's loop over a block's slots reads consecutive values: it vectorises)
 TREE_LEVELS, TREE_SLOTS = 3, 16
-LIGHT_TREE = Table('T', [('C', 3), ('HALF_DIAG', 1), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O', 1), ('SIN_O', 1),
-                         ('COS_E', 1), ('TWO_SIDED', 1)])
+LIGHT_TREE = Table('T', [('C', 3), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O', 1), ('SIN_O', 1)])
 
 # the path integrator's emissive surfaces as lights (host/surface_lights.py, kernel/surface_lights.py): a
 # light's emitted radiance, total area, a sphere's world centre and radius; an ellipsoid's axes A (3x3,

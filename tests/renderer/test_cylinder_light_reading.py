@@ -11,7 +11,7 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.kernel.light_tree import light_pmf
 from rtc.renderer.host.light_tree import leaf_record
-from rtc.renderer.kernel.tables import T_C, T_HALF_DIAG
+from rtc.renderer.kernel.tables import T_C, T_RADIUS
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import look_at, quad, scene, translate
 
@@ -79,7 +79,7 @@ def test_the_light_tree_bounds_a_cylinder_by_its_box():
         origin = desc.camera.matrix[:3, 3]
         leaf = leaf_record(L.tree_f, L.tree_i, 0)
         np.testing.assert_allclose(leaf[T_C:T_C + 3] + origin, (1.0, 2.0, 3.0), atol=1e-5)   # (float32)
-        assert leaf[T_HALF_DIAG] == pytest.approx(0.5 * math.sqrt(4.0 ** 2 + 1.0 + 1.0), rel=1e-6)
+        assert leaf[T_RADIUS] == pytest.approx(0.5 * math.sqrt(4.0 ** 2 + 1.0 + 1.0), rel=1e-6)
         for p in ((1.0, 2.0, 5.0), (1.0, 0.0, 3.0), (5.0, 2.0, 3.0), (1.0, 4.0, 3.0)):   # every side sees it
             n = (np.array([1.0, 2.0, 3.0]) - p) / np.linalg.norm(np.array([1.0, 2.0, 3.0]) - p)
             assert light_pmf(L, tuple(np.array(p) - origin), tuple(n), 0) == 1.0
