@@ -14,9 +14,9 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import ENTIRE, cone_union
 from rtc.renderer.kernel.light_sampling import sample_ld
-from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, choose_lights, importances, light_pmf,
-                                           lone_light)
-from rtc.renderer.kernel.tables import T_C, T_COS_O, T_PHI, T_W, TREE_COLS, TREE_LEVELS, TREE_SLOTS
+from rtc.renderer.kernel.light_tree import (NO_SAMPLE, SPLIT_BELOW, SPLIT_DEEP, _enter, choose_lights, importances,
+                                           light_pmf, lone_light)
+from rtc.renderer.kernel.tables import T_C, T_COS_O, T_PHI, T_RADIUS, T_SIN_O, T_W, TREE_COLS, TREE_LEVELS, TREE_SLOTS
 from tests.renderer.handmade import look_at, quad, scene, translate
 
 
@@ -188,6 +188,49 @@ def test_a_point_lights_importance_is_power_over_distance_squared_times_the_cosi
     importances(tf, 0, p, n, w)
     assert w[3] == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-6)
     assert np.all(np.delete(w, 3) == 0.0)
+
+
+def test_a_flat_emitter_lights_its_back_only_when_two_sided():
+    """A unit square facing +y at the origin (normal cone of half-angle 0: sin theta_o = 0, so its
+    two-sidedness is the sign bit of -0.0): a point 4 below it, facing up, gets importance 0 from the
+    one-sided node and, from the two-sided one, what a point 4 above facing down gets from either."""
+    tf = np.zeros((1, TREE_COLS * TREE_SLOTS), np.float32)
+    slots = tf[0].reshape(TREE_COLS, TREE_SLOTS)
+    for j, two in ((0, False), (1, True)):
+        slots[T_RADIUS, j] = math.sqrt(0.5)
+        slots[T_PHI, j] = 1.0
+        slots[T_W:T_W + 3, j] = (0.0, 1.0, 0.0)
+        slots[T_COS_O, j] = 1.0
+        slots[T_SIN_O, j] = -0.0 if two else 0.0
+    below, above = np.zeros(TREE_SLOTS), np.zeros(TREE_SLOTS)
+    importances(tf, 0, (0.0, -4.0, 0.0), (0.0, 1.0, 0.0), below)
+    importances(tf, 0, (0.0, 4.0, 0.0), (0.0, -1.0, 0.0), above)
+    assert above[0] > 0.0 and above[0] == above[1]
+    assert below[0] == 0.0 and below[1] == above[0]
+
+
+def test_entering_a_block_gives_each_sibling_pair_the_first_childs_probability():
+    """`_enter` (the walk's step into a block): each pair k of siblings (slots 2k, 2k + 1) gets
+    w[2k] / (w[2k] + w[2k + 1]) from the block's importances, computed here in float64 from
+    `importances`' own output (so a pair, a slot or a denominator mixed up fails), and NaN where
+    both are 0 (the walk takes no child there)."""
+    rng = np.random.default_rng(3)
+    tf = np.zeros((1, TREE_COLS * TREE_SLOTS), np.float32)
+    slots = tf[0].reshape(TREE_COLS, TREE_SLOTS)
+    for j in range(10):                               # slots 0-9 point lights, 10-15 empty (phi 0)
+        slots[T_C:T_C + 3, j] = rng.uniform(-5.0, 5.0, 3)
+        slots[T_PHI, j] = rng.uniform(0.5, 3.0)
+        slots[T_W:T_W + 3, j] = ENTIRE[0]
+        slots[T_COS_O, j] = -1.0
+    p, n = (0.0, -6.0, 0.0), (0.0, 1.0, 0.0)
+    w, pr = np.full(TREE_SLOTS, np.nan), np.full(TREE_SLOTS, -1.0)
+    _enter(tf, 0, p, n, w, pr)
+    ref = np.full(TREE_SLOTS, np.nan)
+    importances(tf, 0, p, n, ref)
+    assert np.array_equal(w, ref) and np.all(ref[:10] > 0.0)
+    for k in range(5):
+        assert pr[k] == ref[2 * k] / (ref[2 * k] + ref[2 * k + 1])
+    assert np.all(np.isnan(pr[5:8]))
 
 
 def test_the_tree_is_stored_in_blocks_of_three_levels():
