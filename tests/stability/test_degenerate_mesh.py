@@ -7,6 +7,7 @@ three collinear points, three identical points).  No pixel may be NaN/Inf, and t
 the clean one: mean |diff| < 1e-5 and no pixel off by more than 0.05.
 """
 import numpy as np
+import pytest
 
 from rtc.renderer import description as D
 from rtc.renderer.host.render import RenderOptions, render
@@ -33,14 +34,15 @@ def dirty(mesh):
     return D.Mesh(mesh.path, points=pts, triangles=tris.astype(np.int32), material=mesh.material)
 
 
-def test_dirty_mesh_renders_like_the_clean_one():
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_dirty_mesh_renders_like_the_clean_one(integrator):
     clean = uv_sphere(16, 8, 1.0, material=0, smooth=False)
     floor = quad(20.0, y=-1.0, material=0, path='/floor')
     lam = D.Material('/l', model=D.LAMBERTIAN, diffuse=(0.7, 0.7, 0.7))
     cam = D.Camera('/cam', matrix=look_at((0.3, 1.5, 4.0), (0, 0, 0)), focal_length=1.0, horizontal_aperture=1.0,
                    vertical_aperture=0.75)
     lights = [point_light((2, 4, 3), (30, 30, 30))]
-    opts = RenderOptions(spp=8, sampler='sobol', seed=1)
+    opts = RenderOptions(spp=8, sampler='sobol', seed=1, integrator=integrator)
     imgs = [render(scene([D.Container('/', meshes=[floor, m])], [lam], lights, cam, width=64, height=48), opts).image
             for m in (clean, dirty(clean))]
     assert all(np.all(np.isfinite(i)) for i in imgs)

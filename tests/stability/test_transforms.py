@@ -168,11 +168,12 @@ IMAGE_CASES = {
 }
 
 
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
 @pytest.mark.parametrize('name', list(IMAGE_CASES))
-def test_instanced_equals_flattened(name):
+def test_instanced_equals_flattened(name, integrator):
     m, proto_lin = IMAGE_CASES[name]
     a, b = instanced_and_flat(m, proto_lin)
-    opts = RenderOptions(spp=8, sampler='sobol', seed=2)
+    opts = RenderOptions(spp=8, sampler='sobol', seed=2, integrator=integrator)
     ia, ib = render(a, opts).image, render(b, opts).image
     assert np.all(np.isfinite(ia)) and np.all(np.isfinite(ib))
     mean_diff, frac = compare(ia, ib)
