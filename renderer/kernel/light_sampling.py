@@ -37,6 +37,8 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
 INF = math.inf
+FLOAT32_EPS = 2.0 ** -23
+T_ULPS = 16.0
 # A rect light whose solid angle seen from the shading point lies in [SPHERICAL_MIN, SPHERICAL_MAX] sr is
 # sampled uniformly in that solid angle (`spherical_rect`); outside it uniformly by area: a far light's
 # solid angle loses precision where both strategies are equally good, and one nearly filling the
@@ -70,9 +72,21 @@ def _plane(lf, k):
 
 
 @nb.njit(**_JIT)
-def _cone(w, cos_max, u1, u2):
-    cos_t = 1.0 - u1 * (1.0 - cos_max)
-    sin_t = math.sqrt(max(0.0, 1.0 - cos_t * cos_t))
+def sphere_cone(r, d2):
+    """1 - cos of the half-angle of the cone that a sphere of radius r subtends at squared distance d2 > r^2:
+    (r^2 / d2) / (1 + cos), which keeps its precision where 1 - sqrt(1 - r^2 / d2) cancels (r / d = 1e-7:
+    1.4 % off; 1e-8: 0, and its pdf a division by zero)."""
+    s2 = r * r / d2
+    return s2 / (1.0 + math.sqrt(max(0.0, 1.0 - s2)))
+
+
+@nb.njit(**_JIT)
+def _cone(w, one_minus, u1, u2):
+    """A direction uniformly in the cone about w of solid angle 2 pi one_minus (one_minus = 1 - cos of its
+    half-angle, passed as such: computed as 1 - cos it loses its digits for narrow cones)."""
+    x = u1 * one_minus                           # 1 - cos_t
+    cos_t = 1.0 - x
+    sin_t = math.sqrt(max(0.0, x * (2.0 - x)))   # (not 1 - cos_t^2: it cancels in a narrow cone)
     cp, sp = turn(u2)
     tt, bb = onb(w)
     return to_world((sin_t * cp, sin_t * sp, cos_t), tt, bb, w)
@@ -117,18 +131,20 @@ def sample_ld(S, L, k, p, n, u1, u2):
             return NONE
         d = math.sqrt(d2)
         w = (v[0] / d, v[1] / d, v[2] / d)
-        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
-        wi = _cone(w, cos_max, u1, u2)
+        one_minus = sphere_cone(r, d2)
+        if not one_minus > 0.0:                  # (r / d below ~1e-154: its square underflows)
+            return NONE
+        wi = _cone(w, one_minus, u1, u2)
         bq = d * dot(wi, w)
         dist = bq - math.sqrt(max(0.0, r * r - (d2 - bq * bq)))
-        return wi, dist, Lr, 1.0 / (2.0 * math.pi * (1.0 - cos_max)), False
+        return wi, dist, Lr, 1.0 / (2.0 * math.pi * one_minus), False
     if F_LIGHTS & B_DISTANT and (F_LIGHTS == B_DISTANT or t == D.DISTANT):
         w = normalize(_col(lf, k, 2))
         cos_max = lf[k, LF_COS_MAX]
         if cos_max >= 1.0:
             return w, INF, Lr, 1.0, True
         omega = 2.0 * math.pi * (1.0 - cos_max)
-        return _cone(w, cos_max, u1, u2), INF, (Lr[0] / omega, Lr[1] / omega, Lr[2] / omega), 1.0 / omega, False
+        return _cone(w, 1.0 - cos_max, u1, u2), INF, (Lr[0] / omega, Lr[1] / omega, Lr[2] / omega), 1.0 / omega, False
     if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or t == D.DOME):
         if F_DOME_TEXTURE and L.dome_i[k, 0] >= 0:
             wi, pdf = sample_dome_texture(S, L, k, u1, u2)
@@ -374,9 +390,10 @@ def hit_shape(S, k, o, d, tmax, p0):
         if not (0.0 < th < tmax):
             return -1.0, 0.0
         v = sub(c, p0)
-        d2 = dot(v, v)
-        cos_max = math.sqrt(max(0.0, 1.0 - r * r / d2))
-        return th, 1.0 / (2.0 * math.pi * (1.0 - cos_max))
+        one_minus = sphere_cone(r, dot(v, v))
+        if not one_minus > 0.0:
+            return -1.0, 0.0
+        return th, 1.0 / (2.0 * math.pi * one_minus)
     c, ex, ey, nrm = _plane(lf, k)
     den = dot(d, nrm)
     if den <= 0.0:                       # travelling away from the emitting side
@@ -435,6 +452,20 @@ def _hit_cylinder(lf, k, o, d, tmax, p0):
 
 
 @nb.njit(**_JIT)
+def hit_tolerance(o, te):
+    """How far Embree's distance te to a light shape, along a ray from o, may be from the exact one
+    (`hit_shape`) for the two to be the same crossing: 1e-4 te (the polygons of round shapes), 1e-6,
+    and T_ULPS float32 steps of the ray's coordinates (|o| + te): Embree intersects float32 triangles
+    with a float32 ray, so where the light is nearer the ray's origin than its coordinates are large
+    (a rect 5e-4 above a floor 5 units from the camera) its t is off by more than 1e-4 te + 1e-6, and
+    a tighter test rejected the crossing and lost its light (2.6 % of the floor's there: `tests/
+    stability/test_near_lights.py`).  The far side of a sphere light is 2 r cos away: farther unless the
+    ray grazes it."""
+    m = max(abs(o[0]), abs(o[1]), abs(o[2])) + te
+    return 1e-4 * te + 1e-6 + T_ULPS * FLOAT32_EPS * m
+
+
+@nb.njit(**_JIT)
 def shape_emission(S, L, k, ray, te, prev):
     """MIS-weighted radiance of light shape k, which Embree found at distance te along ray = (o, d) (in
     the path integrator's top level: `host/build.path_top`); zero unless the exact test
@@ -448,7 +479,7 @@ def shape_emission(S, L, k, ray, te, prev):
     if mode == 2:
         return ZERO
     t, pl = hit_shape(S, k, o, d, INF, p0)
-    if t < 0.0 or abs(t - te) > 1e-4 * te + 1e-6:
+    if t < 0.0 or abs(t - te) > hit_tolerance(o, te):
         return ZERO
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
     return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
