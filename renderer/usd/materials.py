@@ -226,10 +226,17 @@ class MaterialTable:
         key = (resolved, colour_space)
         if key not in self._pixels:
             try:
-                self._pixels[key] = read_texture(resolved, colour_space)
+                pixels = read_texture(resolved, colour_space)
             except OSError as exc:
                 self.warn(f'{owner}: cannot read texture {resolved}: {exc}')
-                self._pixels[key] = None
+                pixels = None
+            if pixels is not None:
+                bad = ~np.isfinite(pixels)
+                if bad.any():       # one NaN texel of a dome made every light sample NaN: the dome went dark
+                    self.warn(f'{owner}: texture {resolved} has {int(bad.sum())} NaN or infinite values; '
+                              f'they are read as 0')
+                    pixels[bad] = 0.0
+            self._pixels[key] = pixels
         return self._pixels[key]
 
 

@@ -814,3 +814,44 @@ def test_course_background_dome_is_the_background_not_a_light():
     desc = read_stage(stage)
     assert desc.background == (0.0, 0.0, 0.0)
     assert sorted(l.path for l in desc.lights) == ['/World/Background', '/World/L']
+
+
+def _exr(path, pixels):
+    import OpenImageIO as oiio
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], 3, oiio.FLOAT))
+    assert out.write_image(np.ascontiguousarray(pixels, np.float32))
+    out.close()
+
+
+def test_non_finite_texels_are_read_as_zero_with_a_warning(tmp_path):
+    """A dome texture with a NaN and an infinite texel (a damaged HDR): read as 0 with a warning naming
+    the file and the light, and lit exactly as the same image with those texels black.  (Read as they
+    were, one NaN texel made the sampling tables NaN and every light sample of the dome dark.)"""
+    from rtc.renderer.host.render import Renderer
+    sky = np.full((8, 16, 3), 0.5, np.float32)
+    sky[2, 5] = (4.0, 3.0, 2.0)
+    damaged = sky.copy()
+    damaged[1, 3, 0], damaged[6, 9] = np.nan, np.inf
+    clean = sky.copy()
+    clean[1, 3, 0], clean[6, 9] = 0.0, 0.0
+    descs = {}
+    for name, px in (('damaged', damaged), ('clean', clean)):
+        _exr(tmp_path / f'{name}.exr', px)
+        stage = _stage()
+        _tri_mesh(stage, '/World/Floor', [(-5, 0, -5), (5, 0, -5), (5, 0, 5), (-5, 0, 5)], [4], [0, 3, 2, 1])
+        dome = UsdLux.DomeLight.Define(stage, '/World/Sky')
+        dome.CreateTextureFileAttr(Sdf.AssetPath(str(tmp_path / f'{name}.exr')))
+        cam = UsdGeom.Camera.Define(stage, '/World/Cam')
+        cam.AddTranslateOp().Set(Gf.Vec3d(0, 1, 3))
+        descs[name] = read_stage(stage)
+    warned = [w for w in descs['damaged'].warnings if 'NaN or infinite' in w]
+    assert len(warned) == 1 and '/World/Sky' in warned[0] and 'damaged.exr' in warned[0] and ' 4 ' in warned[0]
+    assert not any('NaN' in w for w in descs['clean'].warnings)
+    assert np.array_equal(descs['damaged'].textures[0].pixels, descs['clean'].textures[0].pixels)
+    images = {}
+    for name, desc in descs.items():
+        with Renderer(desc) as r:
+            images[name] = r.render(RenderOptions(width=16, height=12, spp=8, integrator='path')).image
+    assert np.isfinite(images['damaged']).all() and images['damaged'].mean() > 0.1
+    assert np.array_equal(images['damaged'], images['clean'])
