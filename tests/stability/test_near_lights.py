@@ -2,7 +2,8 @@
 a thousand units away; the path integrator against closed forms.
 
 A Lambert plane (albedo 0.5, `path`: f = 0.5 / pi) seen from 5 units above by an orthographic camera, lit by
-* a rect light (1.2 x 0.8, facing down) at heights 1e-2 .. 2e-4: Lambert's polygon formula;
+* a rect light (1.2 x 0.8, facing down) at heights 1e-2 .. 2e-4, and one standing on the plane (1e-3 above it, and
+  touching it), lighting it at every angle down to grazing: Lambert's polygon formula;
 * a disk light (radius 0.5) parallel to the plane: E = pi L / 2 (1 - (h^2 + x^2 - R^2) / sqrt((h^2 + x^2 +
   R^2)^2 - 4 R^2 x^2)) at horizontal distance x from its axis;
 * a sphere light (radius 0.5) whose surface is h above the plane: E = pi L (r / d)^2 cos theta where the
@@ -60,6 +61,17 @@ def small_rect_case(h, a, L):
     return rect_light((0.0, h, 0.0), a, a, (L,) * 3), 4.0, irradiance
 
 
+def upright_rect_case(gap, x0=1.0, a=1.0, b=1.5, L=2.0):
+    """A rect light standing on the plane (its lower edge `gap` above it, in the plane x = x0), emitting
+    towards -x: the points before it see it at every angle down to grazing along its lower edge; those
+    behind it see nothing."""
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = (0, 0, -1), (0, 1, 0), (1, 0, 0), (x0, gap + a / 2, 0)
+    corners = [(x0, gap, -b / 2), (x0, gap, b / 2), (x0, gap + a, b / 2), (x0, gap + a, -b / 2)]
+    return (D.Light('/upright', D.RECT, m, (L,) * 3, width=b, height=a), 4.0,
+            lambda x, z: np.where(x < x0, ti.polygon_irradiance(x, z, corners, L), 0.0))
+
+
 def disk_case(h, R=0.5, L=2.0):
     def irradiance(x, z):
         s2 = x * x + z * z
@@ -106,6 +118,8 @@ CASES = {
     'rect 1e-3 above': rect_case(1e-3),
     'rect 5e-4 above': rect_case(5e-4),
     'rect 2e-4 above': rect_case(2e-4),
+    'rect upright, 1e-3 above': upright_rect_case(1e-3),
+    'rect upright, touching': upright_rect_case(0.0),
     'disk 5e-4 above': disk_case(5e-4),
     'sphere 1e-3 above': sphere_case(1e-3),
     'sphere 2e-4 above': sphere_case(2e-4),
