@@ -85,3 +85,30 @@ def test_a_partly_transparent_sheet_passes_one_minus_opacity_of_the_light(strate
         img = r.render(RenderOptions(spp=spp, integrator='path', strategy=strategy, filter='box', max_depth=1)).image[..., 0]
     assert img.mean() == pytest.approx(ref.mean(), rel=0.01), (img.mean(), ref.mean())
     assert np.sqrt(np.mean((img - ref) ** 2)) < 0.03 * ref.max()
+
+
+FURNACE_SPHERES = {
+    'white Lambert (course)': D.Material('/m', model=D.LAMBERTIAN, diffuse=(1.0,) * 3),
+    'glass, ior 1.5': D.Material('/m', model=D.DIELECTRIC, ior=1.5),
+    'index-matched glass, ior 1.0001': D.Material('/m', model=D.DIELECTRIC, ior=1.0001),
+    'diamond, ior 2.4': D.Material('/m', model=D.DIELECTRIC, ior=2.4),
+    'ior 20': D.Material('/m', model=D.DIELECTRIC, ior=20.0),
+    'ior 0.5 (a bubble)': D.Material('/m', model=D.DIELECTRIC, ior=0.5),
+    'perfect mirror': D.Material('/m', model=D.MIRROR, mirror_coef=1.0, diffuse=(0.0, 0.0, 0.0)),
+}
+
+
+@pytest.mark.parametrize('name', list(FURNACE_SPHERES))
+def test_what_conserves_energy_vanishes_in_a_white_furnace(name):
+    """A sphere under a constant dome of radiance 1 (nothing else in the scene): if its surface reflects and
+    transmits all the light it receives (albedo 1; a clear dielectric, Fresnel reflection and refraction,
+    total internal reflection included; a perfect mirror), every path carries exactly 1, so every pixel is 1
+    whatever the samples: the sphere is invisible.  Depth 64 with Russian roulette (which a path of
+    throughput 1 always survives): light trapped by total internal reflection for longer is the only loss."""
+    cam = D.Camera('/cam', matrix=look_at((0.0, 0.0, 4.0), (0.0, 0.0, 0.0)), focal_length=1.0,
+                   horizontal_aperture=0.7, vertical_aperture=0.7)        # the sphere fills the view
+    desc = scene([D.Container('/', spheres=[D.Sphere('/s', 1.0, np.eye(4), material=0)])], [FURNACE_SPHERES[name]],
+                 [D.Light('/dome', D.DOME, np.eye(4), (1.0,) * 3)], cam, width=32, height=32)
+    with Renderer(desc) as r:
+        img = r.render(RenderOptions(spp=16, integrator='path', max_depth=64, sampler='sobol')).image
+    np.testing.assert_allclose(img, 1.0, rtol=1e-5)
