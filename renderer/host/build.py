@@ -5,7 +5,7 @@ Precision scheme (see README, "Numerical guarantees"):
   rounded to float32 for Embree, so a prototype keeps full float32 precision wherever it is placed;
 * the whole world is expressed relative to the camera position at shutter open (float64), so the
   float32 numbers Embree sees near the camera are small even when the scene sits 10^6 units from
-  the origin;
+  the origin (a camera far outside the scene's bounds: relative to their point nearest it, `float_origin`);
 * the kernels keep instance matrices and hit points in float64 and rebuild hit points from the
   barycentrics on the float32 object-space triangle (independent of the ray length).
 
@@ -44,7 +44,7 @@ class BuiltScene:
     prototypes: list
     top: object
     data: SceneData
-    origin: np.ndarray           # float64 (3,): world position subtracted from everything (camera at open)
+    origin: np.ndarray           # float64 (3,): world position subtracted from everything (`float_origin`)
     motion_steps: int
     has_textures: bool
     has_dome: bool
@@ -80,6 +80,35 @@ def _container_radius(c: D.Container, ctr: np.ndarray) -> float:
     for s in c.spheres:
         r = max(r, float(np.linalg.norm(s.matrix[:3, 3] - ctr) + s.radius * np.linalg.norm(s.matrix[:3, :3], 2)))
     return r if np.isfinite(r) else 0.0
+
+
+FAR_OUTSIDE = 4.0
+
+
+def float_origin(camera: np.ndarray, world: np.ndarray, in_proto: np.ndarray, centers: np.ndarray,
+                 radii: np.ndarray) -> np.ndarray:
+    """The world point subtracted from every position before it is rounded to float32: the camera at shutter
+    open, unless the camera is farther outside the bounds of the placed geometry than FAR_OUTSIDE times their
+    diagonal (a telephoto shot): then the point of the bounds nearest the camera, so that the rays that leave
+    surfaces (shadow, bounce, reflection) start from small numbers.  A camera 1e4 away from a scene 10 across
+    put its surface points at float32 steps of 1e-3 and their ray offsets at 0.25 (README, "Where float32
+    remains").  Camera rays start far then, which moves their origin by at most half a float32 step: the
+    pinhole, not the hits (rebuilt from barycentrics in float64)."""
+    camera = np.asarray(camera, np.float64)
+    if not len(in_proto) or world.ndim != 4:
+        return camera.copy()
+    c = np.einsum('rkij,rj->rki', world[:, :, :3, :3], centers[in_proto]) + world[:, :, :3, 3]     # (N, K, 3)
+    # the placed bounding sphere's exact box: half-extent along axis i is r * |row i of the linear part|
+    r = radii[in_proto][:, None, None] * np.sqrt(np.sum(world[:, :, :3, :3] ** 2, axis=3))      # (N, K, 3)
+    ok = (np.isfinite(c) & np.isfinite(r)).all(axis=2)
+    if not ok.any():
+        return camera.copy()
+    lo = np.min(np.where(ok[..., None], c - r, np.inf), axis=(0, 1))
+    hi = np.max(np.where(ok[..., None], c + r, -np.inf), axis=(0, 1))
+    nearest = np.clip(camera, lo, hi)
+    if np.linalg.norm(camera - nearest) <= FAR_OUTSIDE * max(float(np.linalg.norm(hi - lo)), 1e-300):
+        return camera.copy()
+    return nearest
 
 
 def offset_scale(xf: np.ndarray, in_proto: np.ndarray, radii: np.ndarray) -> float:
@@ -405,7 +434,6 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     device and prototype BVHs are taken over and only the top level is built; `reuse` keeps nothing
     (its top level is released) and must not be rendered afterwards."""
     inst = desc.instances
-    origin = np.array(desc.camera.matrix[:3, 3], np.float64)
     containers = list(desc.containers)
     tables = _Tables()
     dev = reuse.device if reuse is not None else Device(threads=threads)
@@ -430,8 +458,9 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     set_rows = np.concatenate(rows['set'])
     K = int(world.shape[1]) if world.ndim == 4 and len(world) else 1
 
-    # placement matrices act on re-centred containers (M' = M T(centre)), camera-relative
+    # placement matrices act on re-centred containers (M' = M T(centre)), relative to the float origin
     ctr_arr = np.array(centers, np.float64).reshape(-1, 3)
+    origin = float_origin(desc.camera.matrix[:3, 3], world, in_proto, ctr_arr, np.array(radii, np.float64))
     xf = np.zeros((len(in_proto), K, 3, 4), np.float64)
     if len(in_proto):
         xf[:] = world[:, :, :3, :]

@@ -135,7 +135,8 @@ def test_a_third_split_counts_the_chance_that_two_side_samples_came_before():
     built = build(desc)
     L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
     try:
-        p, n = (0.0, 0.0, 0.0), (0.0, 0.0, -1.0)      # at the camera, facing the lights
+        p = tuple(np.array([3.5, 0.0, 1000.0]) - built.origin)     # at the camera (float coordinates)
+        n = (0.0, 0.0, -1.0)                          # facing the lights
         qs = _trail_qs(L, 0, p, n)                    # light 0's trail: the q of each node on it
         assert qs == pytest.approx([0.24, 0.24, 0.008], rel=1e-3) and qs[2] <= SPLIT_DEEP < qs[1] <= SPLIT_BELOW
         assert light_pmf(L, p, n, 0) == 1.0
