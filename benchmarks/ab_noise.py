@@ -3,7 +3,8 @@ a reference (its own, `--ref-spp`) and then `--seeds` renders of `--spp` samples
 per scene: the relative RMSE (RMSE / reference mean) of the low-sample renders against the version's own reference (mean over
 seeds), the median time per sample, and the efficiency ratio (relRMSE^2 x time, base / new: > 1, the new
 version reaches equal error sooner).  For sampling changes that move the noise, not the converged image
-(the two references' means are printed side by side: they must agree within their noise).
+(the two references' means are printed side by side: they must agree within their noise).  Like
+`ab_render.py`, it runs once with each version's kernels loaded first (`--order`) and reports both.
 
     python benchmarks/ab_noise.py glossy.usda cornell.usda --base HEAD --integrator path --max-depth 3
 """
@@ -18,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks.ab_render import ROOT, base_tree, import_copy, load  # noqa: E402
+from benchmarks.ab_render import (ROOT, add_order_option, base_tree, import_copy, load,  # noqa: E402
+                                  report_ratio, run_both_orders)
 
 
 def rel_rmse(img, ref):
@@ -38,16 +40,21 @@ def main(argv=None) -> int:
     ap.add_argument('--max-depth', type=int, default=3)
     ap.add_argument('--integrator', choices=['cook', 'path'], default='path')
     ap.add_argument('--threads', type=int, default=2)
+    add_order_option(ap)
     a = ap.parse_args(argv)
+    if a.order == 'both':
+        return run_both_orders(__file__, sys.argv[1:] if argv is None else list(argv))
     from rtc.renderer.host import render as new_mod
     base_mod = import_copy(base_tree(a.base), 'rtc_ab_base')
     print(f'base {a.base} vs working tree; {a.width}x{a.height}, {a.spp} spp against {a.ref_spp} spp, '
-          f'{a.integrator}, max depth {a.max_depth}, {a.threads} thread(s), {a.seeds} seeds')
+          f'{a.integrator}, max depth {a.max_depth}, {a.threads} thread(s), {a.seeds} seeds, '
+          f'{a.order} kernels loaded first', flush=True)
     for path in a.scenes:
         desc = load(path)
         out = {}
         with base_mod.Renderer(desc) as rb, new_mod.Renderer(desc) as rn:
             rs = {'base': (rb, base_mod), 'new': (rn, new_mod)}
+            rs = {n: rs[n] for n in sorted(rs, key=lambda n: n != a.order)}      # its kernels load first
 
             def render(name, spp, seed):
                 r, mod = rs[name]
@@ -69,7 +76,10 @@ def main(argv=None) -> int:
         (eb, tb, mb), (en, tn, mn) = out['base'], out['new']
         print(f'{Path(path).name:16s} relRMSE base {eb:.4f} new {en:.4f} ({en / eb:.3f}x)   time base {tb:.3f} s '
               f'new {tn:.3f} s ({tn / tb:.3f}x)   efficiency base/new {eb * eb * tb / (en * en * tn):.3f}   '
-              f'reference means {mb:.5f} / {mn:.5f}')
+              f'reference means {mb:.5f} / {mn:.5f}', flush=True)
+        report_ratio(Path(path).name, 'relRMSE new/base', en / eb)
+        report_ratio(Path(path).name, 'time new/base', tn / tb)
+        report_ratio(Path(path).name, 'efficiency base/new', eb * eb * tb / (en * en * tn))
     return 0
 
 
