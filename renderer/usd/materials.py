@@ -44,7 +44,7 @@ class MaterialTable:
         self.textures: list[Texture] = []
         self._index: dict = {}          # material path / fallback key -> material index
         self._pixels: dict = {}         # (resolved file, colour space) -> float32 pixels or None
-        self._texture_index: dict = {}  # (file, colour space, wraps, scale, bias) -> texture index
+        self._texture_index: dict = {}  # (file, colour space, wraps, scale, bias, light) -> index
 
     # ------------------------------------------------------------------ entry points
     def bound(self, material: UsdShade.Material) -> int | None:
@@ -206,16 +206,26 @@ class MaterialTable:
         return index, fallback
 
     def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,
-                 scale: tuple, bias: tuple, owner: str) -> int:
-        """Index of a texture (file decoded once per colour space), -1 if it cannot be read."""
+                 scale: tuple, bias: tuple, owner: str, light: bool = False) -> int:
+        """Index of a texture (file decoded once per colour space), -1 if it cannot be read.
+
+        `light`: a light's radiance image (a DomeLight's lat-long texture), whose negative values are read
+        as 0 with a warning, as pbrt-v4 reads them (`ClampZero`): light sampling draws directions by the
+        image's luminance and never where it is negative, so only BSDF samples saw them and the estimators
+        disagreed.  A material reading the same file keeps its values (normal maps are negative)."""
         resolved = asset.resolvedPath
         if not resolved:
             self.warn(f'{owner}: texture "{asset.path}" not found')
             return -1
-        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias)
+        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias, light)
         if key not in self._texture_index:
             pixels = self._load(resolved, colour_space, owner)
             self._texture_index[key] = -1
+            negative = 0 if pixels is None or not light else int(np.count_nonzero((pixels[..., :3] < 0.0).any(-1)))
+            if negative:
+                self.warn(f'{owner}: texture {resolved} has {negative} texels with negative values; the light '
+                          f'reads them as 0')
+                pixels = np.maximum(pixels, np.float32(0.0))
             if pixels is not None:
                 self.textures.append(Texture(path=resolved, pixels=pixels, wrap_s=wrap_s,
                                              wrap_t=wrap_t, scale=scale, bias=bias))

@@ -367,7 +367,7 @@ class _Reader:
         return lights
 
     def _dome_texture(self, asset, owner: str) -> int:
-        return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner)
+        return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner, light=True)
 
 
 def _is_course_background(prim: Usd.Prim, time: Usd.TimeCode) -> bool:
