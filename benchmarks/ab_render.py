@@ -12,14 +12,15 @@ rendered `--rounds` times by each, alternating A, B, B, A, A, B...  Reported per
 (per thread) of each, and the median of the per-round time ratios base/new (> 1: the new version is
 faster), with the range.  The images of the two versions are compared: "identical" or the largest
 difference (a kernel change meant to be exact must print "identical").
-The version whose kernels load first in a process is faster by 7-11 % on its own (`run_both_orders`), so by
-default the comparison runs twice, in two child processes, once each way, and the geometric mean of the two
+The version whose kernels are called first in a process is faster on its own (a fixed cost per kernel call
+of the other one: `run_both_orders`), so by default the comparison runs twice, in two child processes, once each way, and the geometric mean of the two
 ratios is reported (`--order base|new`: one way only).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
 import statistics
 import subprocess
 import sys
@@ -72,15 +73,21 @@ def run_both_orders(script: str, argv: list[str]) -> int:
     """Run `script` twice in child processes, with `--order base` and `--order new`, echo their reports and
     print the geometric mean of the ratios they report (lines `@ratio <json [scene, name, ratio]>`).
 
-    Measured (2026-12-04, a null A/B: the working tree against a copy of itself, path, 160 x 120, 8 rounds):
-    the version whose kernels numba loads first in a process renders 7-11 % faster (0.906-0.947x with the
-    base first, 1.074-1.108x with the new version first), whichever renderer is built first: the placement
-    of the JIT-loaded code, not the order of the renders.  One order alone biases every ratio by that much."""
+    Why: a null A/B (2026-12-04: the working tree against a copy of itself, path, 1 thread) read 0.89-0.96x
+    at 160 x 120 x 4 spp and 0.52-0.75x at 64 x 48 x 2 spp with the base's kernels loaded first, 1.05-1.09x
+    and 1.27-1.87x the other way.  The cost is fixed per kernel call, not per sample: the second version's
+    calls take numba's slow dispatch path (`Dispatcher._compile_for_args`, typing its ~75 argument arrays
+    in Python, ~0.5 ms a call), because numba's C typeof fingerprints a tuple by its items, not its class,
+    so the two versions' record namedtuples share a fingerprint whose type code is the first version's.
+    One order alone biases every ratio by that much; the two orders' geometric mean cancels it (null A/B
+    0.973-0.988x).  A single rtc process has one set of record classes and takes the fast path.
+    """
     import json
     got: dict[tuple[str, str], list[float]] = {}
     for first in ORDERS:
         print(f'--- {first} kernels loaded first (child process)', flush=True)
-        p = subprocess.run([sys.executable, script, *argv, '--order', first], capture_output=True, text=True)
+        p = subprocess.run([sys.executable, script, *argv, '--order', first], capture_output=True, text=True,
+                           env={**os.environ, 'RTC_AB_CHILD': '1'})
         sys.stderr.write(p.stderr)
         for line in p.stdout.splitlines():
             if line.startswith('@ratio '):
@@ -90,15 +97,17 @@ def run_both_orders(script: str, argv: list[str]) -> int:
                 print(line, flush=True)
         if p.returncode:
             return p.returncode
-    print('--- both orders: geometric mean of the two ratios (> 1: the new version is faster)')
+    print('--- both orders: geometric mean of the two processes\' ratios')
     for (scene, name), rs in got.items():
         print(f'{scene:16s} {name} {float(np.exp(np.mean(np.log(rs)))):.3f}x  ({" / ".join(f"{r:.3f}" for r in rs)})')
     return 0
 
 
 def report_ratio(scene: str, name: str, ratio: float) -> None:
+    """A ratio for `run_both_orders` (printed only in its child processes)."""
     import json
-    print('@ratio ' + json.dumps([scene, name, float(ratio)]), flush=True)
+    if os.environ.get('RTC_AB_CHILD'):
+            print('@ratio ' + json.dumps([scene, name, float(ratio)]), flush=True)
 
 
 def load(path: str):

@@ -13,7 +13,10 @@ more: `surface_lights.py`).  Total powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt
 weigh a point light 4 times too much against an area light of the same irradiance, and the tree would
 spend light samples on minor point lights beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
 tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (texture mean), R the radius
-of the scene's bounds.  Luminances of the RGB values.
+of the scene's bounds.  Luminances of the RGB values' magnitudes: a light of negative radiance (a
+subtractive light, as the course integrator reads it) is chosen by how much it changes the image, so that
+light samples find it as BSDF samples do (an integrand of either sign is sampled in proportion to its
+magnitude).
 
 Lights are numbered as the scene's (`desc.lights`, the light table), then its emissive surfaces
 (`surface_first` on: `surface_lights.py`).
@@ -42,7 +45,7 @@ _LUM = np.array([0.2126, 0.7152, 0.0722])
 def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
     out = np.zeros(max(len(desc.lights), 1))
     for k, l in enumerate(desc.lights):
-        y = float(np.dot(_LUM, l.radiance))
+        y = float(np.dot(_LUM, np.abs(l.radiance)))
         if l.type == D.POINT:
             out[k] = y
         elif l.type in (D.RECT, D.DISK):

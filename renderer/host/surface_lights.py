@@ -81,7 +81,7 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int):
     opacity = data.mat_f[mat, MF_OPACITY].astype(np.float64)
     see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (opacity < 1.0)
     emit[see_through] *= np.maximum(opacity[see_through], 0.0)[:, None]
-    return emit, (emit @ _LUM > 0.0) & np.all(np.isfinite(emit), 1)
+    return emit, (np.abs(emit) @ _LUM > 0.0) & np.all(np.isfinite(emit), 1)
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
@@ -198,7 +198,7 @@ def _ball_rows(balls: list, first: int):
                 projected = np.pi * s[0] * s[1]
             sl_f.append(f)
             sl_i.append(i)
-            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (emit[r] @ _LUM)), ENTIRE, True))
+            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (np.abs(emit[r]) @ _LUM)), ENTIRE, True))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
     return sl_f, sl_i, bounds, row_lights
 
@@ -267,7 +267,7 @@ def _mover_rows(data, movers: list, first: int, n_tri: int):
             SURFACE_LIGHT_I.write(i, MOVING=1, INST=ids[r, 0], INST_PRIM=ids[r, 1])
             sl_f.append(f)
             sl_i.append(i)
-            bounds.append(_moving_bounds(obj, sphere, xf[r], float(emit[r] @ _LUM)))
+            bounds.append(_moving_bounds(obj, sphere, xf[r], float(np.abs(emit[r]) @ _LUM)))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
         if not sphere:
             n_tri += len(obj)
@@ -298,7 +298,7 @@ def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLi
         sl_i.append(i)
         tris.append(world.reshape(-1, 3, 3))
         cdfs.append(cdf.ravel())
-        bounds += _bounds(world, total * (emit @ _LUM))
+        bounds += _bounds(world, total * (np.abs(emit) @ _LUM))
         row_lights.append((rows, slot, first + n_light + np.arange(R)))
         n_light += R
         n_tri += R * n
