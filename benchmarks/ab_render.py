@@ -12,14 +12,15 @@ rendered `--rounds` times by each, alternating A, B, B, A, A, B...  Reported per
 (per thread) of each, and the median of the per-round time ratios base/new (> 1: the new version is
 faster), with the range.  The images of the two versions are compared: "identical" or the largest
 difference (a kernel change meant to be exact must print "identical").
-The version whose kernels are called first in a process is faster on its own (a fixed cost per kernel call
-of the other one: `run_both_orders`), so by default the comparison runs twice, in two child processes, once each way, and the geometric mean of the two
-ratios is reported (`--order base|new`: one way only).
+The version whose kernels are called first in a process is faster on its own (a fixed cost per kernel
+call of the other one: `run_both_orders`), so by default the comparison runs twice, in two child processes,
+once each way, and the geometric mean of the two ratios is reported (`--order base|new`: one way only).
 """
 from __future__ import annotations
 
 import argparse
 import importlib
+import json
 import os
 import statistics
 import subprocess
@@ -82,7 +83,6 @@ def run_both_orders(script: str, argv: list[str]) -> int:
     One order alone biases every ratio by that much; the two orders' geometric mean cancels it (null A/B
     0.973-0.988x).  A single rtc process has one set of record classes and takes the fast path.
     """
-    import json
     got: dict[tuple[str, str], list[float]] = {}
     for first in ORDERS:
         print(f'--- {first} kernels loaded first (child process)', flush=True)
@@ -105,9 +105,8 @@ def run_both_orders(script: str, argv: list[str]) -> int:
 
 def report_ratio(scene: str, name: str, ratio: float) -> None:
     """A ratio for `run_both_orders` (printed only in its child processes)."""
-    import json
     if os.environ.get('RTC_AB_CHILD'):
-            print('@ratio ' + json.dumps([scene, name, float(ratio)]), flush=True)
+        print('@ratio ' + json.dumps([scene, name, float(ratio)]), flush=True)
 
 
 def load(path: str):

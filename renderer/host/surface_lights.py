@@ -198,7 +198,8 @@ def _ball_rows(balls: list, first: int):
                 projected = np.pi * s[0] * s[1]
             sl_f.append(f)
             sl_i.append(i)
-            bounds.append((centre[r] - extent, centre[r] + extent, float(projected * (np.abs(emit[r]) @ _LUM)), ENTIRE, True))
+            phi = float(projected * (np.abs(emit[r]) @ _LUM))
+            bounds.append((centre[r] - extent, centre[r] + extent, phi, ENTIRE, True))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
     return sl_f, sl_i, bounds, row_lights
 
