@@ -44,7 +44,8 @@ import numpy as np
 
 from rtc.renderer.host import film as film_mod  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # the repository root: numba caches the loops under
-from benchmarks.embree_loops import occlude_rays, occlude_rays16, trace_rays, trace_rays16  # noqa: E402  # the tests' name
+from benchmarks.embree_loops import (occlude_rays, occlude_rays16, ray_masks, trace_rays,  # noqa: E402  # the tests' name
+                                     trace_rays16, trace_rays_masked)
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
                                             N_COUNTERS)
@@ -90,11 +91,12 @@ def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     return out
 
 
-def replay(handle: int, kind: str, rays, packets: bool, path: bool = True) -> float:
+def replay(handle: int, kind: str, rays, packets: bool, path: bool = True, masks=None) -> float:
     """Seconds to trace `rays` on bare Embree (closest hit for camera/secondary, occlusion for shadow);
     path: the path integrator's rays, whose shadow rays carry its ray mask (`trace.MASK_SURFACES`: the
     light shapes in its top level occlude nothing, and its traversal skips them), as the renderer traces
-    them."""
+    them; masks: the camera and secondary rays' masks (`embree_loops.ray_masks`: the one-sided light
+    shapes a ray cannot see the emitting side of), None: every geometry."""
     o, d, tn, tf, tm = rays
     n = len(o)
     if n == 0:
@@ -102,10 +104,30 @@ def replay(handle: int, kind: str, rays, packets: bool, path: bool = True) -> fl
     t0 = time.perf_counter()
     if kind.startswith('shadow'):
         (occlude_rays16 if packets else occlude_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path)
+    elif masks is not None:
+        trace_rays_masked(handle, rays, masks, np.empty(n, np.float32), np.empty((n, 4), np.uint32), packets)
     else:
         (trace_rays16 if packets else trace_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.float32),
                                                   np.empty((n, 4), np.uint32))
     return time.perf_counter() - t0
+
+
+def path_masks(r: Renderer, rays: dict) -> dict:
+    """{kind: uint32 ray masks} of the recorded camera and secondary rays of a path render, as the
+    renderer gives them (`embree_loops.ray_masks`)."""
+    masks = {}
+    for kind in ('camera', 'secondary'):
+        masks[kind] = np.empty(len(rays[kind][1]), np.uint32)
+        ray_masks(r.path_lights(), rays[kind][1], masks[kind])
+    return masks
+
+
+def warm_replays(handle: int, rays: dict, is_path: bool, masks: dict) -> None:
+    """Load or compile the replay kernels (a few rays of each kind, single and in packets)."""
+    for packets in (False, True):
+        for kind, rk in rays.items():
+            m = masks.get(kind)
+            replay(handle, kind, tuple(x[:64] for x in rk), packets, is_path, None if m is None else m[:64])
 
 
 def bench_scene(path: str, a) -> dict:
@@ -129,10 +151,9 @@ def bench_scene(path: str, a) -> dict:
     rays = None if a.no_replay else recorded_rays(r, opts, a.record_spp, a.record_cap)
     is_path = opts.integrator == 'path'
     handle = r.path_scene() if is_path else r.built.handle             # what the renderer traces
+    masks = path_masks(r, rays) if rays is not None and is_path else {}
     if rays is not None:
-        for packets in (False, True):                                 # load/compile the replay kernels
-            for kind, rk in rays.items():
-                replay(handle, kind, tuple(x[:64] for x in rk), packets, is_path)
+        warm_replays(handle, rays, is_path, masks)
     render_s, first_s, res = [], [], None
     ratios = {'single': [], 'traced': [], 'packets': []}
     traced_s = []
@@ -150,7 +171,8 @@ def bench_scene(path: str, a) -> dict:
         for packets in (False, True):
             for kind, rk in rays.items():
                 if len(rk[0]):
-                    rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets, is_path), 1e-12)
+                    rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets, is_path,
+                                                                  masks.get(kind)), 1e-12)
                     rates[kind, packets].append(rate[kind, packets])
         bare = {name: sum(n_of[k] / rate[k, p(k)] for k in KINDS if (k, False) in rate)
                 for name, p in (('single', lambda k: False), ('traced', lambda k: k in PACKETED),

@@ -11,9 +11,11 @@ import numba
 import numpy as np
 
 from rtc.renderer.kernel.jit import INLINE_JIT, JIT
+from rtc.renderer.kernel.light_sampling import shape_mask
 from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET,
-                                       PRIM_ID, TFAR, intersect1, intersect16, intersect16_coherent, new_packet16,
-                                       new_ray_buffer, occluded1, occluded1_surfaces, occluded16, set_ray16)
+                                       PRIM_ID, TFAR, intersect1, intersect1_masked, intersect16, intersect16_coherent,
+                                       new_packet16, new_ray_buffer, occluded1, occluded1_surfaces, occluded16,
+                                       set_ray16)
 
 # rays per work item, and the prime stride that scatters work items over threads (numba hands each
 # thread a contiguous block of a prange; images are not uniform)
@@ -33,19 +35,47 @@ def trace_rays(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
     """Closest hit for n rays with rtcIntersect1.  origins, dirs: float32 (n, 3); tnear, tfar,
     time: float32 (n,).  out_t float32 (n,) = hit t (tfar on a miss); out_ids uint32 (n, 4) =
     primID, geomID, instID, instPrimID (all INVALID on a miss)."""
-    n = origins.shape[0]
-    n_items = (n + CHUNK - 1) // CHUNK
+    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        item = _work_item(i, n_items)
-        f, u = new_ray_buffer()
-        for r in range(item * CHUNK, min(n, (item + 1) * CHUNK)):
-            hit = intersect1(scene, f, u, (origins[r, 0], origins[r, 1], origins[r, 2]),
-                             (dirs[r, 0], dirs[r, 1], dirs[r, 2]), tnear[r], tfar[r], time[r])
-            out_t[r] = f[TFAR]
-            out_ids[r, 0] = u[PRIM_ID] if hit else INVALID
-            out_ids[r, 1] = u[GEOM_ID]
-            out_ids[r, 2] = u[INST_ID]
-            out_ids[r, 3] = u[INST_PRIM_ID]
+        _trace_item1(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, None)
+
+
+@numba.njit(**JIT, parallel=True)
+def trace_rays_masked(scene, rays, masks, out_t, out_ids, packets):
+    """``trace_rays`` (``trace_rays16`` if `packets`) of rays = (origins, dirs, tnear, tfar, time), ray r
+    with ray mask masks[r] (uint32 (n,): `ray_masks`)."""
+    n_items = (rays[0].shape[0] + CHUNK - 1) // CHUNK
+    for i in numba.prange(n_items):
+        if packets:
+            _trace_item16(scene, _work_item(i, n_items), rays, out_t, out_ids, False, masks)
+        else:
+            _trace_item1(scene, _work_item(i, n_items), rays, out_t, out_ids, masks)
+
+
+@numba.njit(**JIT)
+def _trace_item1(scene, item, rays, out_t, out_ids, masks):
+    """Work item `item` of `trace_rays` (masks: None, every geometry, or one ray mask per ray)."""
+    origins, dirs, tnear, tfar, time = rays
+    f, u = new_ray_buffer()
+    for r in range(item * CHUNK, min(origins.shape[0], (item + 1) * CHUNK)):
+        o, d = (origins[r, 0], origins[r, 1], origins[r, 2]), (dirs[r, 0], dirs[r, 1], dirs[r, 2])
+        if masks is None:
+            hit = intersect1(scene, f, u, o, d, tnear[r], tfar[r], time[r])
+        else:
+            hit = intersect1_masked(scene, f, u, (o, d), tnear[r], tfar[r], time[r], masks[r])
+        out_t[r] = f[TFAR]
+        out_ids[r, 0] = u[PRIM_ID] if hit else INVALID
+        out_ids[r, 1] = u[GEOM_ID]
+        out_ids[r, 2] = u[INST_ID]
+        out_ids[r, 3] = u[INST_PRIM_ID]
+
+
+@numba.njit(**JIT)
+def ray_masks(L, dirs, out):
+    """out[r]: the ray mask the path integrator gives a camera or BSDF ray along dirs[r]
+    (`light_sampling.shape_mask`; L: its `PathLights`)."""
+    for r in range(dirs.shape[0]):
+        out[r] = shape_mask(L, (np.float64(dirs[r, 0]), np.float64(dirs[r, 1]), np.float64(dirs[r, 2])))
 
 
 @numba.njit(**JIT, parallel=True)
@@ -79,7 +109,7 @@ def _load_packet(packet, first, end, origins, dirs, tnear, tfar, time):
 
 
 @numba.njit(**JIT)
-def _trace_item16(scene, item, rays, out_t, out_ids, coherent):
+def _trace_item16(scene, item, rays, out_t, out_ids, coherent, masks):
     """Work item `item` of `trace_rays16` (a function of its own: numba's parfor analysis of an
     inlined packet record in the prange body gives wrong results)."""
     origins, dirs, tnear, tfar, time = rays
@@ -89,6 +119,9 @@ def _trace_item16(scene, item, rays, out_t, out_ids, coherent):
     end = min(n, (item + 1) * CHUNK)
     for first in range(item * CHUNK, end, PACKET):
         lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
+        if masks is not None:
+            for j in range(lanes):
+                u[MASK * PACKET + j] = masks[first + j]
         if coherent:
             intersect16_coherent(scene, packet)
         else:
@@ -109,7 +142,7 @@ def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
     e.g. 4x4 pixel tiles, for packets to pay off)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, False)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, False, None)
 
 
 @numba.njit(**JIT, parallel=True)
@@ -117,7 +150,7 @@ def trace_rays16_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_id
     """``trace_rays16`` in Embree's coherent mode (RTC_RAY_QUERY_FLAG_COHERENT, `trace.intersect16_coherent`)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, True)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, True, None)
 
 
 @numba.njit(**JIT)

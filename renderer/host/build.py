@@ -21,7 +21,7 @@ import numpy as np
 
 from .. import description as D
 from .embree import Device, InstanceGroup
-from ..kernel.trace import MASK_LIGHT_SHAPES, MASK_SURFACES
+from ..kernel.trace import MASK_SURFACES
 from ..kernel.tables import (GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
                              TEXTURE_F, TEXTURE_I, WRAP)
 
@@ -385,33 +385,55 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
     return out
 
 
+def _mask_runs(masks: list[int]) -> list[tuple[int, int, int]]:
+    """(start, end, mask) of each run of equal consecutive masks."""
+    runs = []
+    for j, m in enumerate(masks):
+        if runs and runs[-1][2] == m:
+            runs[-1] = (runs[-1][0], j + 1, m)
+        else:
+            runs.append((j, j + 1, m))
+    return runs
+
+
 def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
     """The path integrator's top level: (Embree scene, or None when the built top level serves as it is;
     the geomID of its first geometry of its own; int64 (n, 3) rows (instance id, instance index, geometry
     id in its prototype) that the hits on each of those geometries stand for, in geomID order).
 
-    * The light shapes (`shapes`: light_selection.shape_geometry, or None) are in it, so that one query
-      of a camera or BSDF ray finds the nearest surface or light shape; they stand for instance
-      `light_group`.  They have ray mask MASK_LIGHT_SHAPES and every surface MASK_SURFACES, so that
-      shadow rays (mask MASK_SURFACES) pass them: light shapes occlude nothing.
+    * The light shapes (`shapes`: (geometry, masks) of light_selection.shape_geometry, or None) are in it,
+      so that one query of a camera or BSDF ray finds the nearest surface or light shape; they stand for
+      instance `light_group`.  They have ray masks MASK_LIGHT_SHAPES or MASK_FACING << g (one-sided
+      planar lights facing one way: a ray that cannot see their emitting side leaves that bit out) and
+      every surface MASK_SURFACES, so that shadow rays (mask MASK_SURFACES) pass them: light shapes
+      occlude nothing.
     * A scene that can be one level (`_flat_geometry`: every prototype placed once, nothing moving) is:
       its geometry and the light shapes sit in the top level itself, placed, and a ray meets them without
       entering an instance (Embree's time on the path integrator's own rays: 1/1.04-1/1.61 of the
       instanced scene's).
-      Otherwise the built placements stay instance arrays 0..n-1 and the light shapes are one more
-      instance, geometry `light_group`: Embree traverses one BVH per kind of geometry in a scene, and in
+      Otherwise the built placements stay instance arrays 0..n-1 and the light shapes are instances
+      `light_group`, `light_group` + 1, ..., one per ray mask (each its own BVH: Embree tests a ray's
+      mask against an instance's before it enters, but against a primitive's only in a leaf; their geomIDs
+      are those of `shape_geometry`'s order across them): Embree traverses one BVH per kind of geometry in a scene, and in
       a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
       time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level")."""
     flat = _flat_geometry(built, containers)
     if shapes is None and flat is None:
         return None, -1, np.zeros((0, 3), np.int64)
     if flat is None:
-        light = built.device.prototype_scene(shapes[0], shapes[1], curves=shapes[2])
-        groups = list(built.top.groups) + [InstanceGroup(np.array([len(built.prototypes)], np.uint32),
-                                                         np.eye(4, dtype=np.float32)[None, None, :3])]
-        masks = [MASK_SURFACES] * (len(groups) - 1) + [MASK_LIGHT_SHAPES]
-        top = built.device.top_scene(list(built.prototypes) + [light], groups, masks=masks)
-        light.close()                                     # the top level holds its own reference
+        (meshes, spheres, curves), masks = shapes
+        n_m, n_s = len(meshes), len(spheres)
+        lights, groups, group_masks = [], list(built.top.groups), [MASK_SURFACES] * len(built.top.groups)
+        for a, b, mask in _mask_runs(masks):
+            lights.append(built.device.prototype_scene(
+                meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a,
+                curves=curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)], masks=[mask] * (b - a)))
+            groups.append(InstanceGroup(np.array([len(built.prototypes) + len(lights) - 1], np.uint32),
+                                        np.eye(4, dtype=np.float32)[None, None, :3]))
+            group_masks.append(mask)
+        top = built.device.top_scene(list(built.prototypes) + lights, groups, masks=group_masks)
+        for light in lights:
+            light.close()                                 # the top level holds its own reference
         return top, -1, np.zeros((0, 3), np.int64)
     base = light_group + 1
     direct, table = [], []
@@ -419,8 +441,8 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
         direct.append((base + len(table), MASK_SURFACES, meshes, spheres, ()))
         table += [(0, row, g) for g in geoms]
     if shapes is not None:
-        meshes, spheres, curves = shapes
-        direct.append((base + len(table), MASK_LIGHT_SHAPES, meshes, spheres, curves))
+        (meshes, spheres, curves), masks = shapes
+        direct.append((base + len(table), masks, meshes, spheres, curves))
         table += [(light_group, 0, g) for g in range(len(meshes) + len(spheres) + len(curves))]
     top = built.device.top_scene([], [], direct=direct)
     return top, base, np.array(table, np.int64).reshape(-1, 3)

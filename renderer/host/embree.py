@@ -250,27 +250,35 @@ class Device:
 
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],
-                        spheres: list[np.ndarray], robust: bool = True, curves: tuple = ()) -> Scene:
+                        spheres: list[np.ndarray], robust: bool = True, curves: tuple = (),
+                        masks: list[int] | None = None, first_id: int = 0) -> Scene:
         """One Embree scene (one BVH) holding a container's geometry.
 
         meshes:  [(vertices float32 (n, 3), triangles uint32 (m, 3))] -> TRIANGLE geometries,
-                 geomID 0 .. len(meshes)-1.
+                 geomID 0 .. len(meshes)-1 (all geomIDs: + first_id).
         spheres: [centers_radii float32 (k, 4)] -> SPHERE_POINT geometries (x, y, z, r),
                  geomID len(meshes) + i.
         curves:  [segments float32 (k, 2, 4)] -> ROUND_LINEAR_CURVE geometries of k segments (two
                  vertices x, y, z, radius each: a capsule per segment), geomID len(meshes) + len(spheres) + i.
         robust:  RTC_SCENE_FLAG_ROBUST (watertight; no leaks through shared edges far from the origin).
+        masks:   a ray mask per geometry, in geomID order (None: Embree's default).
+        first_id: the geomID of the first geometry (the others follow it).
         Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
         spheres p - c; u, v are the barycentric weights of v1, v2.
         """
         def build(scene):
-            self._attach_shapes(scene, 0, meshes, spheres, curves)
+            self._attach_shapes(scene, first_id, meshes, spheres, curves, mask=masks)
             return ()
         return self._build_scene(build, robust, "prototype scene")
 
-    def _attach_shapes(self, scene, first_id: int, meshes, spheres, curves=(), mask: int | None = None) -> None:
+    def _attach_shapes(self, scene, first_id: int, meshes, spheres, curves=(), mask: int | list | None = None) -> None:
         """Attach meshes, spheres and curves (as `prototype_scene` describes them) to `scene` as geomIDs
-        first_id, first_id + 1, ... in that order."""
+        first_id, first_id + 1, ... in that order; mask: the ray mask of every geometry, or a list of one
+        per geometry in that order, or None (Embree's default)."""
+        n = len(meshes) + len(spheres) + len(curves)
+        masks = list(mask) if isinstance(mask, (list, tuple)) else [mask] * n
+        if len(masks) != n:
+            raise ValueError(f"{len(masks)} masks for {n} geometries")
         for k, (vertices, triangles) in enumerate(meshes):
             vertices = _as_rows(vertices, 3, "mesh vertices")
             triangles = _as_rows(triangles, 3, "mesh triangles")
@@ -278,19 +286,19 @@ class Device:
                 raise ValueError(f"mesh {k}: triangle index outside [0, {len(vertices)})")
             self._attach(scene, first_id + k, RTC_GEOMETRY_TYPE_TRIANGLE, [
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, np.float32, vertices),
-                (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, np.uint32, triangles)], mask=mask)
+                (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, np.uint32, triangles)], mask=masks[k])
         first_id += len(meshes)
         for i, centers_radii in enumerate(spheres):
             self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
-                 _as_rows(centers_radii, 4, "sphere centers_radii"))], mask=mask)
+                 _as_rows(centers_radii, 4, "sphere centers_radii"))], mask=masks[len(meshes) + i])
         first_id += len(spheres)
         for i, segments in enumerate(curves):
             segments = np.asarray(segments, np.float32).reshape(-1, 2, 4)
             self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, [
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
                 (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32,
-                 2 * np.arange(len(segments), dtype=np.uint32))], mask=mask)
+                 2 * np.arange(len(segments), dtype=np.uint32))], mask=masks[len(meshes) + len(spheres) + i])
 
     def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,
                   quaternion_motion: bool | None = None, masks: list[int] | None = None,
@@ -305,7 +313,8 @@ class Device:
         shutter; True/False = for all / no moving groups.  Static groups always use plain matrices.
         masks: a ray mask per group (a ray meets a group iff ray mask & group mask != 0); None: Embree's
         default, every ray meets every group.
-        direct: [(first geomID, ray mask or None, meshes, spheres, curves)]: geometry as `prototype_scene`
+        direct: [(first geomID, ray mask (or a list of one per geometry) or None, meshes, spheres, curves)]:
+        geometry as `prototype_scene`
         takes it, already placed (camera-relative world space), attached to the top level itself as
         geomIDs first, first + 1, ... (meshes, then spheres, then curves): geometry placed once needs no
         instance around it.

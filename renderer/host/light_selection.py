@@ -30,6 +30,7 @@ import numpy as np
 
 from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
+from ..kernel.trace import MASK_FACING, MASK_LIGHT_SHAPES
 from .dome_sampling import dome_tables
 from .features import see_through
 from .light_tree import light_tree
@@ -37,7 +38,7 @@ from .surface_lights import surface_lights, surface_lights_none
 
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
-                                       'prim_light', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
+                                       'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
                                        'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
@@ -61,39 +62,87 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
     return np.where(np.isfinite(out) & (out > 0), out, 0.0)
 
 
-def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]):
+# one-sided light shapes (rects, disks) facing within FACING_ANGLE of each other share a ray-mask bit, up
+# to FACING_GROUPS bits (`facing_groups`); the others are in the group every ray meets
+FACING_GROUPS, FACING_ANGLE = 8, np.radians(30.0)
+FACING_EPS = 1e-7
+
+
+def _back_normal(li_f: np.ndarray, k: int) -> np.ndarray:
+    """The unit normal of planar light k on the side it does not emit from, as `kernel/light_sampling._plane`
+    computes it: a ray along d can meet its emitting side only where d . n > 0."""
+    m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
+    n = np.cross(m[:, 0], m[:, 1])
+    n = n / max(float(np.linalg.norm(n)), 1e-300)
+    return -n if float(np.dot(n, m[:, 2])) < 0.0 else n
+
+
+def facing_groups(normals: list, groups: int = FACING_GROUPS, angle: float = FACING_ANGLE):
+    """(group of each normal, -1: none; facing float64 (g, 4)) of one-sided planar lights whose back
+    normals are `normals` (unit): each joins the first group whose axis (its first member's normal) is
+    within `angle` of it, or starts a group while there are fewer than `groups`.  Row g of `facing`: the
+    axis a and -sin(theta) - FACING_EPS, theta the largest angle between a and a member: a ray along d
+    can meet the emitting side of a member (d . n > 0) only if d . a > -sin(theta) (the angle between d and
+    a is below 90 degrees + theta), so a ray whose d . a is at most row[3] meets none of them, and the
+    kernel leaves the group's bit out of its ray mask (`light_sampling.shape_mask`): camera rays that look
+    down on ceiling lights do not traverse them."""
+    axes, spread, of = [], [], []
+    cos_a = np.cos(angle)
+    for n in normals:
+        g = next((j for j, a in enumerate(axes) if float(np.dot(a, n)) >= cos_a), -1)
+        if g < 0 and len(axes) < groups:
+            g = len(axes)
+            axes.append(np.asarray(n, np.float64))
+            spread.append(0.0)
+        if g >= 0:
+            spread[g] = max(spread[g], float(np.arccos(np.clip(np.dot(axes[g], n), -1.0, 1.0))))
+        of.append(g)
+    facing = np.array([[*a, -np.sin(t) - FACING_EPS] for a, t in zip(axes, spread)], np.float64).reshape(-1, 4)
+    return np.array(of, np.int64), facing
+
+
+def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int], groups: int = FACING_GROUPS):
     """((meshes, spheres, curves) as `embree.Device.prototype_scene` takes them, or None; geom_off,
-    prim_light) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top` puts them
-    in the path integrator's top level): rects and disks as two triangles each (a disk's circumscribed
-    square; the kernel's exact test `light_sampling.hit_shape` rejects the corners), spheres as sphere
+    prim_light; masks: the ray mask of each of those geometries, in that order; facing: the planar groups'
+    rows, `facing_groups`) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top`
+    puts them in the path integrator's top level): rects and disks as two triangles each (a disk's
+    circumscribed square; the kernel's exact test `light_sampling.hit_shape` rejects the corners), one mesh
+    per facing group (mask MASK_FACING << g) and one of the rest (MASK_LIGHT_SHAPES), spheres as sphere
     points, cylinders as one segment of a round linear curve each (a capsule: Embree has no open
     cylinder; the capsule is convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
-    capsule there, and the exact test rejects the hits on the round caps); light of a hit =
-    prim_light[geom_off[geomID] + primID]."""
+    capsule there, and the exact test rejects the hits on the round caps), both MASK_LIGHT_SHAPES; light
+    of a hit = prim_light[geom_off[geomID] + primID]."""
     planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]
     round_ = [k for k in shapes if desc.lights[k].type == D.SPHERE]
     tubes = [k for k in shapes if desc.lights[k].type == D.CYLINDER]
+    no_facing = np.zeros((0, 4), np.float64)
     if not shapes:
-        return None, np.zeros(1, np.int64), np.zeros(1, np.int64)
-    meshes, spheres, geom_off, prim_light = [], [], [], []
-    if planar:
+        return None, np.zeros(1, np.int64), np.zeros(1, np.int64), [], no_facing
+    meshes, spheres, geom_off, prim_light, masks = [], [], [], [], []
+    of, facing = facing_groups([_back_normal(li_f, k) for k in planar], groups) if planar else ([], no_facing)
+    for g in [*range(len(facing)), -1]:
+        members = [k for k, j in zip(planar, of) if j == g]
+        if not members:
+            continue
         verts = []
-        for k in planar:
+        for k in members:
             m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
             half = (0.5 * li_f[k, LF_W], 0.5 * li_f[k, LF_H]) if desc.lights[k].type == D.RECT else \
                 (li_f[k, LF_RADIUS],) * 2
             ex, ey = m[:, 0] * half[0], m[:, 1] * half[1]
             verts += [m[:, 3] - ex - ey, m[:, 3] + ex - ey, m[:, 3] + ex + ey, m[:, 3] - ex + ey]
-        base = 4 * np.arange(len(planar))[:, None]
+        base = 4 * np.arange(len(members))[:, None]
         tris = np.concatenate([base + [0, 1, 2], base + [0, 2, 3]], 1).reshape(-1, 3)
         meshes.append((np.array(verts, np.float32), tris.astype(np.uint32)))
-        geom_off.append(0)
-        prim_light += [k for k in planar for _ in range(2)]
+        geom_off.append(len(prim_light))
+        prim_light += [k for k in members for _ in range(2)]
+        masks.append(MASK_FACING << g if g >= 0 else MASK_LIGHT_SHAPES)
     if round_:
         spheres.append(np.array([[*li_f[k, LF_M:LF_M + 12].reshape(3, 4)[:, 3], li_f[k, LF_RADIUS]]
                                  for k in round_], np.float32))
         geom_off.append(len(prim_light))
         prim_light += round_
+        masks.append(MASK_LIGHT_SHAPES)
     curves = []
     if tubes:
         segments = []
@@ -104,12 +153,13 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
         curves.append(np.array(segments, np.float32))
         geom_off.append(len(prim_light))
         prim_light += tubes
-    return (meshes, spheres, curves), np.array(geom_off, np.int64), np.array(prim_light, np.int64)
+        masks.append(MASK_LIGHT_SHAPES)
+    return (meshes, spheres, curves), np.array(geom_off, np.int64), np.array(prim_light, np.int64), masks, facing
 
 
 def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, light_group: int,
                 data=None) -> tuple:
-    """(PathLights record, the light shapes' geometry or None: `shape_geometry`) of a built scene (li_f:
+    """(PathLights record, (the light shapes' geometry, their ray masks) or None: `shape_geometry`) of a built scene (li_f:
     the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
     report in the path integrator's top level, `build.path_top`;
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
@@ -126,15 +176,16 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)
                 if l.type == D.DOME or (l.type == D.DISTANT and l.angle > 0)]
-    geometry, geom_off, prim_light = shape_geometry(desc, li_f, shapes)
+    geometry, geom_off, prim_light, masks, facing = shape_geometry(desc, li_f, shapes, FACING_GROUPS)
     return PathLights(tree_f=tree_f, tree_i=tree_i, trail=trail, depth=depth, unbounded=unbounded, n_bounded=n_bounded,
                       shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
                       dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if geometry else -1,
-                      geom_off=geom_off, prim_light=prim_light, **_surface_fields(desc, surf),
+                      geom_off=geom_off, prim_light=prim_light, facing=facing, **_surface_fields(desc, surf),
                       direct_base=-1, direct=np.zeros((0, 3), np.int64),
                       see_through=see_through(data) if data is not None else any(
-                          m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials)), geometry
+                          m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials)), \
+        (geometry, masks) if geometry else None
 
 
 def _warner(desc: D.SceneDescription):

@@ -35,6 +35,7 @@ from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
 INF = math.inf
 FLOAT32_EPS = 2.0 ** -23
@@ -463,6 +464,24 @@ def hit_tolerance(o, te):
     ray grazes it."""
     m = max(abs(o[0]), abs(o[1]), abs(o[2])) + te
     return 1e-4 * te + 1e-6 + T_ULPS * FLOAT32_EPS * m
+
+
+@nb.njit(**_JIT)
+def shape_mask(L, d):
+    """The ray mask of a camera or BSDF ray along d in the path integrator's top level: surfaces, the
+    light shapes of group MASK_LIGHT_SHAPES, and each group of one-sided planar lights facing one way
+    (`host/light_selection.facing_groups`) whose emitting side d can meet (d . axis above the group's
+    bound): a ray cannot see a rect's or disk's emission from behind (`hit_shape` gives it nothing), so it
+    does not traverse those shapes and is not continued past them.  Every ray when the scene has no such
+    group."""
+    fc = L.facing
+    if fc.shape[0] == 0:
+        return MASK_ALL
+    m = MASK_SURFACES | MASK_LIGHT_SHAPES
+    for g in range(fc.shape[0]):
+        if d[0] * fc[g, 0] + d[1] * fc[g, 1] + d[2] * fc[g, 2] > fc[g, 3]:
+            m |= MASK_FACING << g
+    return m
 
 
 @nb.njit(**_JIT)

@@ -47,7 +47,7 @@ from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_
 from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
                          _enqueue_shadow, _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
-from .light_sampling import escaped_emission, sample_ld, shape_emission
+from .light_sampling import escaped_emission, sample_ld, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
 from .ray_record import record_if
@@ -58,8 +58,9 @@ from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
-from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK_SURFACES, PACKET, PRIM_ID, TFAR, hit_of,
-                    intersect1, intersect1_surfaces, intersect16_coherent, lane_hit, occluded1_surfaces)
+from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
+                    hit_of, intersect1_masked, intersect1_surfaces, intersect16_coherent, lane_hit,
+                    occluded1_surfaces)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -218,20 +219,22 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
     """(hit, its distance or inf, emission): the nearest surface along the ray of path vertex v (at v = 0
     the camera ray, already traced as the path's lane of the camera `packet`; Embree's hit left in the
     tracer's ray buffer) and the MIS-weighted emission of the light shapes the ray crosses before it
-    (`prev`: the vertex it left).  The light shapes are in the same top level as the surfaces (geometry
-    L.light_group): a query that meets one is continued just past it."""
+    (`prev`: the vertex it left).  The light shapes are in the same top level as the surfaces (instances
+    L.light_group and after it): a query that meets one is continued just past it."""
     o, d = ray
+    mask = shape_mask(L, d) if F_LIGHT_SHAPES else MASK_ALL
     if v == 0:
         hit = lane_hit(packet, path.lane, tr.f, tr.u)
     else:
         record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, 0.0, np.inf, path.time)
-        hit = intersect1(tr.scene, tr.f, tr.u, o, d, 0.0, np.inf, path.time)
+        hit = intersect1_masked(tr.scene, tr.f, tr.u, ray, 0.0, np.inf, path.time, mask)
         tr.counts[RAYS_SECONDARY] += 1
     placed_hit(L, tr.u)
     e = BLACK
     if F_LIGHT_SHAPES:
         for _ in range(2 * L.prim_light.shape[0] + 1):          # a sphere is met twice
-            if not hit or np.int64(tr.u[INST_ID]) != L.light_group:
+            inst = np.int64(tr.u[INST_ID])
+            if not hit or L.light_group < 0 or inst < L.light_group or inst == INVALID:   # (the last instances)
                 break
             te = float(tr.f[TFAR])
             k = L.prim_light[L.geom_off[tr.u[GEOM_ID]] + tr.u[PRIM_ID]]
@@ -239,7 +242,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
             e = (e[0] + c[0], e[1] + c[1], e[2] + c[2])
             tn = te + 1e-5 * max(te, 1e-3)
             record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, tn, np.inf, path.time)
-            hit = intersect1(tr.scene, tr.f, tr.u, o, d, tn, np.inf, path.time)
+            hit = intersect1_masked(tr.scene, tr.f, tr.u, ray, tn, np.inf, path.time, mask)
             tr.counts[RAYS_SECONDARY] += 1
             placed_hit(L, tr.u)
     return hit, (float(tr.f[TFAR]) if hit else np.inf), e
@@ -361,6 +364,9 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
         n, cursor = next_samples(pp, tile, lanes, first, cursor)
         camera_samples(pp, lanes, n)
         camera_rays_into(pp, lanes, packet, n)
+        if F_LIGHT_SHAPES and L.facing.shape[0] > 0:        # (`light_sampling.shape_mask`)
+            for j in range(n):
+                packet.u[MASK * PACKET + j] = shape_mask(L, (ld[0, j], ld[1, j], ld[2, j]))
         for j in range(n):
             record_if(tr.rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
                       pp.cam[C_NEAR], pp.cam[C_FAR], lanes.time[0, j])

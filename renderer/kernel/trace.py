@@ -86,9 +86,11 @@ PACKET_FLOATS = 21 * PACKET   # RTCRayHit16: 21 fields x 16 lanes = 1344 B (Embr
 INVALID = 0xFFFFFFFF
 _ALL_MASK = 0xFFFFFFFF
 # ray masks of the path integrator's top level (host/build.py `path_top`): a ray meets a
-# geometry iff ray mask & geometry mask != 0; camera and BSDF rays meet everything, shadow rays only
+# geometry iff ray mask & geometry mask != 0; camera and BSDF rays meet everything but the one-sided
+# light shapes they cannot see the emitting side of (`light_sampling.shape_mask`), shadow rays only
 # surfaces (light shapes occlude nothing)
 MASK_SURFACES, MASK_LIGHT_SHAPES = 1, 2
+MASK_FACING = 4                    # planar light shapes facing one way: bit MASK_FACING << group (path integrator)
 MASK_ALL = _ALL_MASK              # a ray that meets every geometry (the cook integrator's scenes have no masks)
 _XFM_ROW_MAJOR = 0x9134
 
@@ -142,7 +144,15 @@ def intersect1(scene, f, u, o, d, tnear, tfar, time):
     """Closest hit of the ray (origin o, direction d: triples); True if something was hit (then
     f[TFAR] = t and the hit fields are set, read them with `hit_of`).  scene: ``Scene.handle``;
     f, u: ``new_ray_buffer()``; time in [0, 1] (shutter)."""
-    _set_ray(f, u, o, d, tnear, tfar, time)
+    return intersect1_masked(scene, f, u, (o, d), tnear, tfar, time, _ALL_MASK)
+
+
+@numba.njit(**INLINE_JIT)
+def intersect1_masked(scene, f, u, ray, tnear, tfar, time, mask):
+    """`intersect1` of ray = (o, d) with ray mask `mask` (a ray meets the geometries whose mask shares a
+    bit with it)."""
+    _set_ray(f, u, ray[0], ray[1], tnear, tfar, time)
+    u[MASK] = mask
     u[GEOM_ID] = INVALID
     u[INST_ID] = INVALID
     u[INST_PRIM_ID] = INVALID
@@ -171,13 +181,7 @@ def occluded1_surfaces(scene, f, u, o, d, tnear, tfar, time):
 @numba.njit(**INLINE_JIT)
 def intersect1_surfaces(scene, f, u, o, d, tnear, tfar, time):
     """`intersect1` against surfaces only (ray mask MASK_SURFACES: no light shapes)."""
-    _set_ray(f, u, o, d, tnear, tfar, time)
-    u[MASK] = MASK_SURFACES
-    u[GEOM_ID] = INVALID
-    u[INST_ID] = INVALID
-    u[INST_PRIM_ID] = INVALID
-    rtcIntersect1(scene, f.ctypes.data, 0)
-    return u[GEOM_ID] != INVALID
+    return intersect1_masked(scene, f, u, (o, d), tnear, tfar, time, MASK_SURFACES)
 
 
 @numba.njit(**INLINE_JIT)

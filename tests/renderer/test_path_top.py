@@ -9,10 +9,13 @@ import numpy as np
 import pytest
 
 from rtc.renderer import description as D
-from rtc.renderer.host.render import Renderer
+from rtc.renderer.host import light_selection
+from rtc.renderer.host.light_selection import FACING_GROUPS, facing_groups
+from rtc.renderer.host.render import Renderer, RenderOptions
+from rtc.renderer.kernel.light_sampling import shape_mask
 from rtc.renderer.kernel.path import placed_hit
-from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, PRIM_ID, TFAR, intersect1,
-                                       intersect1_surfaces, new_ray_buffer)
+from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK_ALL, PRIM_ID, TFAR, intersect1,
+                                       intersect1_masked, intersect1_surfaces, new_ray_buffer)
 from tests.renderer.handmade import look_at, quad, rect_light, scene, translate
 
 
@@ -162,3 +165,127 @@ def test_a_scene_that_keeps_instances_keeps_them_all(case):
     np.testing.assert_array_equal(raw, path)                            # nothing for placed_hit to do
     np.testing.assert_array_equal(path[~light], cook[~light])
     np.testing.assert_array_equal(tp[~light], tc[~light])               # the same instances: the same floats
+
+
+def _planar(center, back_normal, size=0.8, radiance=(4.0, 4.0, 4.0)) -> D.Light:
+    """A rect light at `center` emitting along -back_normal (its local +Z)."""
+    n = np.asarray(back_normal, np.float64) / np.linalg.norm(back_normal)
+    t = np.cross(n, (0.0, 0.0, 1.0) if abs(n[2]) < 0.9 else (1.0, 0.0, 0.0))
+    t /= np.linalg.norm(t)
+    m = np.eye(4)
+    m[:3, 0], m[:3, 1], m[:3, 2], m[:3, 3] = t, np.cross(n, t), n, center
+    return D.Light(path='/rect', type=D.RECT, matrix=m, radiance=tuple(radiance), width=size, height=size)
+
+
+def _facing_scene(flat: bool):
+    """A floor and a box (placed twice unless `flat`), rect lights facing down (two, and one 20 degrees
+    off), sideways (one) and tilted by 47 degrees (one), a sphere light."""
+    boxes = [translate(2.5, 0.0, 0.0)] + ([] if flat else [translate(-2.5, 0.0, 0.0)])
+    desc = _scene(np.eye(4), boxes)
+    desc.camera.matrix = look_at((0.5, 9.0, 4.0), (0.0, 0.5, 0.0))              # (steeply down on the lights)
+    desc.lights[:] = [_planar((0.0, 3.0, 0.0), (0, 1, 0)), _planar((1.5, 3.5, -1.0), (0, 1, 0)),
+                      _planar((-1.5, 3.2, -1.5), (0.36, 1.0, 0.0)),          # 20 degrees off: the same group
+                      _planar((-3.6, 1.6, 0.0), (-1, 0, 0)), _planar((2.0, 2.0, 2.0), (1.0, 1.0, 0.4)),
+                      D.Light(path='/ball', type=D.SPHERE, matrix=translate(-1.0, 2.5, 1.5), radiance=(2.0,) * 3,
+                              radius=0.3)]
+    return desc
+
+
+@numba.njit(cache=False)
+def _trace_masked(scene_handle, L, origins, dirs, masked, out_ids, out_t):
+    """As `_trace` (hits fixed by `placed_hit`), with every ray's mask `shape_mask(L, d)` if `masked`."""
+    f, u = new_ray_buffer()
+    for r in range(origins.shape[0]):
+        o = (origins[r, 0], origins[r, 1], origins[r, 2])
+        d = (dirs[r, 0], dirs[r, 1], dirs[r, 2])
+        hit = intersect1_masked(scene_handle, f, u, (o, d), 0.0, np.inf, 0.0, shape_mask(L, d) if masked else MASK_ALL)
+        placed_hit(L, u)
+        out_ids[r, 0] = u[INST_ID] if hit else INVALID
+        out_ids[r, 1] = u[INST_PRIM_ID] if hit else INVALID
+        out_ids[r, 2] = u[GEOM_ID]
+        out_ids[r, 3] = u[PRIM_ID] if hit else INVALID
+        out_t[r] = f[TFAR] if hit else np.inf
+
+
+@pytest.mark.parametrize('flat', [False, True])
+def test_a_ray_skips_exactly_the_light_shapes_it_sees_from_behind(flat):
+    """Rays from points all over the scene, most towards a light, traced with the path integrator's ray mask
+    (`light_sampling.shape_mask`) and with every geometry's: where the unmasked ray's first hit is a planar
+    light's back (the side `hit_shape` gives nothing), the masked ray does not stop there unless the
+    ray is within the bound of that light's group (a cone of normals: there the kernel continues it past
+    the back as before); every other first hit (surfaces, the sphere light, planar lights from the emitting side) is the same hit at the
+    same distance.  The planar lights are grouped by facing (down, sideways, tilted: three groups)."""
+    desc = _facing_scene(flat)
+    with Renderer(desc) as r:
+        L = r.path_lights()
+        assert len(L.facing) == 3 and (L.direct.shape[0] > 0) == flat
+        rng = np.random.default_rng(5)
+        n = 40000
+        p = rng.uniform([-5, 0.05, -5], [5, 4.5, 5], (n, 3))
+        aim = np.array([l.matrix[:3, 3] for l in desc.lights])[rng.integers(0, 6, n)] + rng.uniform(-0.5, 0.5, (n, 3))
+        d = np.where(rng.random(n)[:, None] < 0.7, aim - p, rng.normal(size=(n, 3)))   # (most towards a light)
+        o = (p - r.built.origin).astype(np.float32)
+        d = (d / np.linalg.norm(d, axis=1)[:, None]).astype(np.float32)
+        out = {}
+        for masked in (False, True):
+            ids, t = np.zeros((n, 4), np.uint32), np.zeros(n)
+            _trace_masked(r.path_scene(), L, o, d, masked, ids, t)
+            out[masked] = ids, t
+        (ids0, t0), (ids1, t1) = out[False], out[True]
+        light = (ids0[:, 0] >= L.light_group) & (ids0[:, 0] != INVALID)
+        k = np.full(n, -1)
+        k[light] = L.prim_light[L.geom_off[ids0[light, 2]] + ids0[light, 3]]
+        planar = light & (k < 5)
+        backs = np.array([_back(desc.lights[j].matrix) for j in range(5)])
+        behind = planar & (np.einsum('ij,ij->i', d.astype(np.float64), backs[np.clip(k, 0, 4)]) <= 0.0)
+        assert behind.sum() > 1000 and (planar & ~behind).sum() > 300 and (light & ~planar).sum() > 100
+        keep = ~behind
+        np.testing.assert_array_equal(ids1[keep], ids0[keep])
+        np.testing.assert_array_equal(t1[keep], t0[keep])
+        skipped = t1[behind] > t0[behind]                           # past the back it was stopped at ...
+        same = (t1[behind] == t0[behind]) & np.all(ids1[behind] == ids0[behind], axis=1)
+        assert np.all(skipped | same) and skipped.mean() > 0.6      # ... or, within a group's cone, not
+        # every member of the group leaves the ray out, so a ray within a group's bound meets its backs
+
+
+def _back(m):
+    n = np.cross(m[:3, 0], m[:3, 1])
+    n /= np.linalg.norm(n)
+    return -n if np.dot(n, m[:3, 2]) < 0 else n
+
+
+def test_facing_groups_bound_every_member_and_the_rest_meet_every_ray():
+    """`facing_groups`: each normal within the angle of its group's axis; a direction that can meet a
+    member's emitting side (d . n > 0) is never left out of its group (d . axis > the row's bound);
+    beyond the number of groups the rest are in none (-1: the group every ray meets)."""
+    rng = np.random.default_rng(2)
+    normals = rng.normal(size=(300, 3))
+    normals /= np.linalg.norm(normals, axis=1)[:, None]
+    of, facing = facing_groups(list(normals), groups=8, angle=math.radians(30.0))
+    assert facing.shape == (8, 4) and (of == -1).sum() > 50 and np.all(of < 8)
+    d = rng.normal(size=(20000, 3))
+    d /= np.linalg.norm(d, axis=1)[:, None]
+    for g in range(8):
+        members = normals[of == g]
+        assert len(members) > 0 and np.all(members @ facing[g, :3] >= math.cos(math.radians(30.0)) - 1e-12)
+        sees = (d @ members.T > 0.0).any(axis=1)
+        kept = d @ facing[g, :3] > facing[g, 3]
+        assert np.all(kept[sees]) and (~kept).sum() > 1000            # (and it does leave rays out)
+    same, facing1 = facing_groups([np.array([0.0, 1.0, 0.0])] * 3)
+    assert same.tolist() == [0, 0, 0] and facing1[0, 3] == pytest.approx(-1e-7, abs=1e-12)
+
+
+def test_a_camera_above_ceiling_lights_renders_them_unchanged_without_meeting_them(monkeypatch):
+    """The whole render: path images with and without facing groups are identical, and with them the
+    camera and BSDF rays that look at the rect lights' backs are not continued past them (fewer
+    secondary queries)."""
+    desc = _facing_scene(False)
+    res = {}
+    for groups in (FACING_GROUPS, 0):
+        monkeypatch.setattr(light_selection, 'FACING_GROUPS', groups)
+        with Renderer(desc) as r:
+            assert len(r.path_lights().facing) == (3 if groups else 0)
+            res[groups] = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=3))
+    a, b = res[FACING_GROUPS], res[0]
+    np.testing.assert_array_equal(a.image, b.image)
+    assert a.stats.rays_secondary < 0.97 * b.stats.rays_secondary and a.image.mean() > 0.01
