@@ -222,7 +222,9 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
     (`prev`: the vertex it left).  The light shapes are in the same top level as the surfaces (instances
     L.light_group and after it): a query that meets one is continued just past it."""
     o, d = ray
-    mask = shape_mask(L, d) if F_LIGHT_SHAPES else MASK_ALL
+    mask = MASK_ALL
+    if F_LIGHT_SHAPES:                          # (the camera ray's: its lane's in the packet, `path_tile`)
+        mask = np.int64(packet.u[MASK * PACKET + path.lane]) if v == 0 else shape_mask(L, d)
     if v == 0:
         hit = lane_hit(packet, path.lane, tr.f, tr.u)
     else:
