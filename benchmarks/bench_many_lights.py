@@ -1,6 +1,6 @@
 """Time per sample of the path integrator against the number of lights (issue 13, "many lights").
 
-    python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--repeats 3] [--glossy]
+    python benchmarks/bench_many_lights.py [--lights 1000] [--spp 8] [--time-spp 32] [--repeats 3] [--threads N] [--glossy]
 
 A USD stage: a floor lit by one dominant 3 x 3 rect light and a 10 x 10 grid of instanced lamps (native
 instancing: each prototype holds a small box and, in the many-light scenes, a 0.2 x 0.2 RectLight, so 100
@@ -12,8 +12,9 @@ image, the issue's "noise of the dominant light"), measured both as the whole im
 the dominant light's own share (*dominant: its own light*: the same light tree and choices, the minor
 lights' radiance zeroed in the kernel's light table after the tree was built); and *bright* (intensities times 1: the 900 lights near
 the floor outshine the main light, a different, harder image).  Whole renders alternate (median of
-`--repeats`), path integrator, D = 3, 320 x 240.  Reported: time per sample per pixel of each and its
-ratio to the one-light scene (issue target <= 2), the relative RMSE of each at `--spp` against its own
+`--repeats` rounds, each render `--time-spp` samples), path integrator, D = 3, 320 x 240.  Reported: time per
+sample per pixel of each and its ratio to the one-light scene (issue target <= 2): the median of the rounds'
+ratios and their range, in wall time and in process CPU time, the relative RMSE of each at `--spp` against its own
 `--ref-spp` reference and its ratio to the one-light scene's (target <= 1 for the dominant scene), and
 how much the minor lights add to the image mean.
 """
@@ -104,10 +105,27 @@ def stage(n_lights: int, minor: float = 1.0, lamps: bool = True, glossy: bool = 
     return st
 
 
+def timed_rounds(renderers: dict, a, RenderOptions) -> dict:
+    """{name: (wall seconds, process CPU seconds) of each round}: the renderers' renders of a.time_spp
+    samples alternate within each round, so that a round's ratios compare renders made side by side
+    (the host's drift between rounds cancels in them); the CPU time leaves out the time the host gives
+    to other processes."""
+    times = {n: ([], []) for n in renderers}
+    for k in range(a.repeats):
+        for n, r in renderers.items():
+            c0, t0 = time.process_time(), time.perf_counter()
+            r.render(RenderOptions(spp=a.time_spp, seed=1 + k, integrator='path', max_depth=3, threads=a.threads))
+            times[n][0].append(time.perf_counter() - t0)
+            times[n][1].append(time.process_time() - c0)
+    return times
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--lights', type=int, default=1000)
-    ap.add_argument('--spp', type=int, default=8)
+    ap.add_argument('--spp', type=int, default=8, help='samples of the noise measurement')
+    ap.add_argument('--time-spp', type=int, default=32, help='samples of each timed render')
+    ap.add_argument('--threads', type=int, default=None, help='render threads of the timed renders (default: all cores)')
     ap.add_argument('--repeats', type=int, default=3)
     ap.add_argument('--minor', type=float, default=0.02,
                     help="the 'dominant' scene's minor lights: intensities times this")
@@ -139,18 +157,13 @@ def main(argv=None) -> int:
     top = li_f[:, LF_RAD:LF_RAD + 3].max(axis=1)
     li_f[top < top.max(), LF_RAD:LF_RAD + 3] = 0.0
     rs[own] = r
-    times = {n: [] for n in rs if n != own}
-    for k in range(a.repeats):
-        for n in times:
-            r = rs[n]
-            t0 = time.perf_counter()
-            r.render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path', max_depth=3))
-            times[n].append(time.perf_counter() - t0)
-    med = {n: statistics.median(t) / a.spp for n, t in times.items()}
     one = 'one light'
-    for n in med:
-        print(f'  {n:>24}: {med[n] * 1e3:6.1f} ms per sample per pixel (median of {a.repeats}), '
-              f'{med[n] / med[one]:.2f}x the one-light scene (target <= 2)')
+    times = timed_rounds({n: r for n, r in rs.items() if n != own}, a, RenderOptions)
+    for n, (wall, cpu) in times.items():
+        rw, rc = ([x / y for x, y in zip(t, times[one][j])] for j, t in enumerate((wall, cpu)))
+        print(f'  {n:>24}: {statistics.median(wall) / a.time_spp * 1e3:6.1f} ms per sample per pixel (median of '
+              f'{a.repeats}), {statistics.median(rw):.2f}x the one-light scene (rounds {min(rw):.2f}-{max(rw):.2f}); '
+              f'CPU time {statistics.median(rc):.2f}x ({min(rc):.2f}-{max(rc):.2f}) (target <= 2)')
     # noise: each scene against a reference of itself (another seed), relative RMSE at a.spp over seeds
     err, mean = {}, {}
     for n, r in rs.items():
