@@ -115,6 +115,7 @@ class Material:
     clearcoat_roughness: float = 0.01
     diffuse_texture: int = -1               # index into SceneDescription.textures (multiplies diffuse)
     specular_texture: int = -1
+    emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)
     # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
 
 

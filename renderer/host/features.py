@@ -15,7 +15,7 @@ import numpy as np
 from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LF_COURSE, MF_CLEARCOAT, MF_EMIT,
-                             MF_OPACITY, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
+                             MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SPECULAR_TEX)
 
 
 def general_kernels() -> bool:
@@ -50,7 +50,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         dome_texture=bool(np.any(data.li_tex[domes] >= 0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
-        textures=bool(np.any(mi[:, MI_DIFFUSE_TEX] >= 0) or np.any(mi[:, MI_SPECULAR_TEX] >= 0)),
+        textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)),
         opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),

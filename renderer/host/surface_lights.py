@@ -10,10 +10,12 @@ today's emission at a hit do; the renderer shades every gprim on both sides).  L
 triangles' normal cone marked two-sided.
 
 Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first + j` of the tree):
-  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A, a sphere's centre and radius;
-         an ellipsoid's centre, axes A and their inverse, and 4 pi |det A| as its AREA
+  sl_f   float64 (n, tables.SURFACE_LIGHT_F): emitted radiance, total area A, a sphere's centre and radius
+         (and the inverse of its axes, its radius times the placement's linear part: a point's direction
+         in the sphere's own frame, for its texture coordinates); an ellipsoid's centre, axes A and their
+         inverse, and 4 pi |det A| as its AREA
   sl_i   int64 (n, tables.SURFACE_LIGHT_I): first world triangle, number of triangles (0: a sphere or an
-         ellipsoid), 1 for an ellipsoid
+         ellipsoid), 1 for an ellipsoid; its emissiveColor texture (-1: none) and its gprim
   sl_tri float64 (triangles, 3, 3): world (camera-relative) triangles, one copy per placement
   sl_cdf float64 (triangles,): cumulative area of a light's triangles over A, ending at exactly 1
   sl_row int64 (placement rows of `SceneData`): offset into sl_idx of the row's gprims, -1 if none emits
@@ -37,6 +39,12 @@ and the density per unit area is divided by the area scale |cof(M) n| of that ma
 its unit object normal), for light samples and BSDF hits alike.  Its tree bounds hold it over the
 shutter (`_moving_bounds`).
 
+An emissiveColor driven by a texture (UsdUVTexture) emits the texture's value at each point: the
+radiance above is the emissiveColor's factor, and the kernel looks the texture up at the point a light
+sample draws (the triangle and barycentrics on a mesh, its st primvar interpolated; a sphere's direction
+in its own frame) as `kernel/shapes.surface` does at a ray's hit, so both strategies see one emission.
+The light tree's phi uses the texture's mean absolute value (`texture_mean`).
+
 Not lights (their emission is still added where a ray hits them, with weight 1): materials whose
 emission has no luminance.
 """
@@ -47,7 +55,8 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I
+from ..kernel.tables import (GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F,
+                             SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000
@@ -67,11 +76,23 @@ def _triangle_counts(data) -> np.ndarray:
     return counts
 
 
-def _emitting(data, rows: np.ndarray, slot: int, g: int):
+def texture_mean(data, k: int) -> np.ndarray:
+    """The mean absolute RGB value of texture k of the scene tables (its texels with the UsdUVTexture scale
+    and bias, channels as `kernel/textures._texel` reads them)."""
+    off, w, h, ch = (int(data.tex_i[k, c]) for c in (TI_OFFSET, TI_WIDTH, TI_HEIGHT, TI_CHANNELS))
+    px = data.tex_data[off:off + w * h * ch].reshape(-1, ch).astype(np.float64)
+    rgb = px[:, [c if c < ch else (0 if ch < 3 else ch - 1) for c in range(3)]]
+    return np.abs(rgb * data.tex_f[k, TF_SCALE:TF_SCALE + 3] + data.tex_f[k, TF_BIAS:TF_BIAS + 3]).mean(0)
+
+
+def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
     """(emission of the light that gprim slot `slot` (gprim g) is at each placement row of `rows`, mask of
     the rows where it is a light), with the material resolution of `kernel/shapes.surface`.  A see-through
     UsdPreviewSurface (opacity a < 1: rays find it with probability a, `path.trace_path`) emits a times its
-    emission on average: the light's."""
+    emission on average: the light's.  The emission rows are (R, 5): the radiance (times its emissiveColor
+    texture where it has one, column 3, else -1: the kernel looks the texture up at each point) and the
+    luminance of its mean over the surface (the light tree's phi; a textured one's from its texture's
+    mean value, `means`: {texture: mean}, filled as needed)."""
     base = data.in_matset[rows]
     mat = np.full(len(rows), -1, np.int64)
     has = base >= 0
@@ -81,7 +102,14 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int):
     opacity = data.mat_f[mat, MF_OPACITY].astype(np.float64)
     see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (opacity < 1.0)
     emit[see_through] *= np.maximum(opacity[see_through], 0.0)[:, None]
-    return emit, (np.abs(emit) @ _LUM > 0.0) & np.all(np.isfinite(emit), 1)
+    tex = data.mat_i[mat, MI_EMISSION_TEX].astype(np.int64)
+    mean = np.ones((len(rows), 3))
+    for k in np.unique(tex[tex >= 0]):
+        if int(k) not in means:
+            means[int(k)] = texture_mean(data, int(k))
+        mean[tex == k] = means[int(k)]
+    lum = (np.abs(emit) * mean) @ _LUM
+    return np.column_stack([emit, tex, lum]), (lum > 0.0) & np.all(np.isfinite(emit), 1)
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
@@ -118,6 +146,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
     groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
+    means = {}
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero(data.in_proto[:n_rows] == c)
         if not len(rows):
@@ -128,7 +157,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
             if (own and not glowing[data.gp_material[g]]) or (data.gp_off[g] < 0 if sphere else counts[g] == 0):
                 continue                                  # no emission, a mesh without triangles
             slot = g - int(data.pr_gp_start[c])
-            emit, ok = _emitting(data, rows, slot, g)
+            emit, ok = _emitting(data, rows, slot, g, means)
             m = xf[rows, 0]
             if sphere:
                 ok &= _invertible(m)
@@ -177,7 +206,7 @@ def _placed_sphere(cr: np.ndarray, m: np.ndarray):
     return m[:, :, :3] @ cr[:3] + m[:, :, 3], cr[3] * _similarity(m), cr[3] * m[:, :, :3]
 
 
-def _ball_rows(balls: list, first: int):
+def _ball_rows(data, balls: list, first: int):
     """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive spheres, lights first, first + 1, ..."""
     sl_f, sl_i, bounds, row_lights = [], [], [], []
     for rows, slot, (centre, radius, axes), emit in balls:
@@ -185,20 +214,22 @@ def _ball_rows(balls: list, first: int):
             f = np.zeros(SURFACE_LIGHT_F.width)
             i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
             if radius[r] > 0.0:
-                SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r], RADIUS=radius[r])
+                SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r],
+                                      RADIUS=radius[r], INV=np.linalg.inv(axes[r]).ravel())   # (its st: below)
                 extent = np.full(3, radius[r])
                 projected = np.pi * radius[r] ** 2
             else:                                        # an ellipsoid: its largest projected area pi s1 s2
                 a = axes[r]
-                SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=4 * np.pi * abs(np.linalg.det(a)), CENTER=centre[r],
+                SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=4 * np.pi * abs(np.linalg.det(a)), CENTER=centre[r],
                                       AXES=a.ravel(), INV=np.linalg.inv(a).ravel())
                 SURFACE_LIGHT_I.write(i, ELLIPSOID=1)
                 extent = np.sqrt((a * a).sum(1))
                 s = np.linalg.svd(a, compute_uv=False)
                 projected = np.pi * s[0] * s[1]
+            SURFACE_LIGHT_I.write(i, **_texture_ids(data, rows[r], slot, emit[r]))
             sl_f.append(f)
             sl_i.append(i)
-            phi = float(projected * (np.abs(emit[r]) @ _LUM))
+            phi = float(projected * emit[r, 4])
             bounds.append((centre[r] - extent, centre[r] + extent, phi, ENTIRE, True))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
     return sl_f, sl_i, bounds, row_lights
@@ -260,7 +291,8 @@ def _mover_rows(data, movers: list, first: int, n_tri: int):
         for r in range(len(rows)):
             f = np.zeros(SURFACE_LIGHT_F.width)
             i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
-            SURFACE_LIGHT_F.write(f, RAD=emit[r], AREA=area)
+            SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=area)
+            SURFACE_LIGHT_I.write(i, **_texture_ids(data, rows[r], slot, emit[r]))
             if sphere:
                 SURFACE_LIGHT_F.write(f, CENTER=obj[:3], RADIUS=obj[3])
             else:
@@ -268,11 +300,17 @@ def _mover_rows(data, movers: list, first: int, n_tri: int):
             SURFACE_LIGHT_I.write(i, MOVING=1, INST=ids[r, 0], INST_PRIM=ids[r, 1])
             sl_f.append(f)
             sl_i.append(i)
-            bounds.append(_moving_bounds(obj, sphere, xf[r], float(np.abs(emit[r]) @ _LUM)))
+            bounds.append(_moving_bounds(obj, sphere, xf[r], float(emit[r, 4])))
         row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
         if not sphere:
             n_tri += len(obj)
     return sl_f, sl_i, tris, cdfs, bounds, row_lights
+
+
+def _texture_ids(data, row: int, slot: int, emit: np.ndarray) -> dict:
+    """The SLI fields of a light's emissiveColor texture (-1: none) and of its gprim (for the texture
+    coordinates of a point on it: its st primvar)."""
+    return {'EMISSION_TEX': int(emit[3]), 'GPRIM': int(data.pr_gp_start[data.in_proto[row]]) + slot}
 
 
 def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLights:
@@ -293,17 +331,17 @@ def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLi
         f = np.zeros((R, SURFACE_LIGHT_F.width))
         i = np.zeros((R, SURFACE_LIGHT_I.width), np.int64)
         for r in range(R):
-            SURFACE_LIGHT_F.write(f[r], RAD=emit[r], AREA=total[r])
-            SURFACE_LIGHT_I.write(i[r], FIRST=n_tri + r * n, COUNT=n)
+            SURFACE_LIGHT_F.write(f[r], RAD=emit[r, :3], AREA=total[r])
+            SURFACE_LIGHT_I.write(i[r], FIRST=n_tri + r * n, COUNT=n, **_texture_ids(data, rows[r], slot, emit[r]))
         sl_f.append(f)
         sl_i.append(i)
         tris.append(world.reshape(-1, 3, 3))
         cdfs.append(cdf.ravel())
-        bounds += _bounds(world, total * (np.abs(emit) @ _LUM))
+        bounds += _bounds(world, total * emit[:, 4])
         row_lights.append((rows, slot, first + n_light + np.arange(R)))
         n_light += R
         n_tri += R * n
-    f, i, b, rl = _ball_rows(balls, first + n_light)
+    f, i, b, rl = _ball_rows(data, balls, first + n_light)
     f2, i2, t2, c2, b2, rl2 = _mover_rows(data, movers, first + n_light + len(b), n_tri)
     f, i = f + f2, i + i2
     tris += t2

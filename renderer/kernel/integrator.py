@@ -37,14 +37,14 @@ from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURF
                        F_OPACITY, F_SAMPLERS)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
-from .materials import (colors, direct, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
+from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, smith_g, _schlick)
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_EMIT, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1,
                     intersect16_coherent, lane_hit, occluded1, occluded16, set_ray16)
@@ -413,9 +413,10 @@ def trace_path(S, tr, path, ray, max_depth, packet):
                     ox, oy, oz = offset_origin(sp.p, (-sp.ng[0], -sp.ng[1], -sp.ng[2]), osc)
                     continue
             if F_EMISSION:
-                Lr += tr_ * mf[mat, MF_EMIT]
-                Lg += tg * mf[mat, MF_EMIT + 1]
-                Lb += tb * mf[mat, MF_EMIT + 2]
+                em = emission(S, mat, sp.st)
+                Lr += tr_ * em[0]
+                Lg += tg * em[1]
+                Lb += tb * em[2]
         if has_diffuse_lobe(sp.model):
             Lr, Lg, Lb = _direct_light(S, tr, path, sp, depth, PathState((Lr, Lg, Lb), (tr_, tg, tb), (ar, ag, ab)))
         if depth == max_depth:

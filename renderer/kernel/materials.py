@@ -23,8 +23,8 @@ import numba as nb
 from .. import description as D
 from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS, F_TEXTURES
 from .jit import JIT, SHADING_INLINE_JIT
-from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
-                    MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_MODEL, MI_SPECULAR_TEX)
+from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
+                    MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SPECULAR_TEX)
 from .textures import sample_texture
 from .vecmath import dot, normalize
 
@@ -46,6 +46,19 @@ def colors(S, mat, st):
         c = sample_texture(S, ts, st[0], st[1])
         ks = (ks[0] * c[0], ks[1] * c[1], ks[2] * c[2])
     return kd, ks
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def emission(S, mat, st):
+    """Emitted radiance of material mat at texture coordinates st: its emissiveColor, times its texture
+    there where one drives it."""
+    mf = S.mat_f
+    em = (float(mf[mat, MF_EMIT]), float(mf[mat, MF_EMIT + 1]), float(mf[mat, MF_EMIT + 2]))
+    te = S.mat_i[mat, MI_EMISSION_TEX]
+    if F_TEXTURES and te >= 0:
+        c = sample_texture(S, te, st[0], st[1])
+        em = (em[0] * c[0], em[1] * c[1], em[2] * c[2])
+    return em
 
 
 @nb.njit(**JIT)

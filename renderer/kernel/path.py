@@ -49,13 +49,13 @@ from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, R
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, preview_params
+from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params
 from .ray_record import record_if
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .shapes import hit_gprim
 from .surface_lights import sample_surface, shadow_ray, surface_emission
-from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
+from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
@@ -264,8 +264,7 @@ def hit_emission(S, L, tr, sp, d, time, prev):
     """Emission of the surface at shading point sp, hit by a ray along d at `time` that left `prev`: the lights
     among emissive surfaces MIS-weighted (`surface_lights.surface_emission`), the others (and every
     emissive surface when the scene has no surface light) with weight 1."""
-    mf = S.mat_f
-    em = (float(mf[sp.mat, MF_EMIT]), float(mf[sp.mat, MF_EMIT + 1]), float(mf[sp.mat, MF_EMIT + 2]))
+    em = emission(S, sp.mat, sp.st)
     if F_SURFACE_LIGHTS and L.n_surface > 0:
         return surface_emission(S, L, tr, em, (sp.p, sp.ng, d, time), prev)
     return em

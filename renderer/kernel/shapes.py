@@ -18,9 +18,38 @@ import numba as nb
 
 from .features import F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
-from .tables import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_SPECULAR_TEX
+from .tables import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_SPECULAR_TEX
 from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def sphere_st(nobj):
+    """Spherical (lat-long) texture coordinates of the unit object-space direction nobj from a sphere's
+    centre: +Y up, seam at -X."""
+    return (0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi),
+            0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def triangle_st(S, g, prim_id, bu, bv):
+    """Texture coordinates of triangle prim_id of mesh gprim g at barycentrics (bu, bv): its st primvar
+    interpolated, or (bu, bv) where it has none."""
+    if F_UVS and S.gp_flags[g] & GP_HAS_UVS:
+        k = S.gp_uv_off[g] + prim_id
+        uv = S.tri_uv
+        w0 = 1.0 - bu - bv
+        return (w0 * uv[k, 0, 0] + bu * uv[k, 1, 0] + bv * uv[k, 2, 0],
+                w0 * uv[k, 0, 1] + bu * uv[k, 1, 1] + bv * uv[k, 2, 1])
+    return bu, bv
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def textured(S, mat):
+    """Whether material mat reads an image texture (its hits need texture coordinates)."""
+    return F_TEXTURES and (S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0
+                           or S.mat_i[mat, MI_EMISSION_TEX] >= 0)
+
 
 @nb.njit(**SHADING_INLINE_JIT)
 def hit_gprim(S, hit):
@@ -66,12 +95,8 @@ def surface(S, scene, hit, o, d, time, m, m32):
         ng = normalize(cofactor_dir(m, nobj))
         # spherical (lat-long) texture coordinates, +Y up, seam at -X; only for textured materials
         # (an atan2 and an asin per hit otherwise wasted)
-        s = 0.0
-        tt = 0.0
-        if F_TEXTURES and (S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0):
-            s = 0.5 + math.atan2(nobj[2], -nobj[0]) / (2.0 * math.pi)
-            tt = 0.5 + math.asin(max(-1.0, min(1.0, nobj[1]))) / math.pi
-        return p, ng, ng, (s, tt), g, mat
+        st = sphere_st(nobj) if textured(S, mat) else (0.0, 0.0)
+        return p, ng, ng, st, g, mat
     tri = S.gp_off[g] + prim_id
     v = S.tri_v
     w0 = 1.0 - bu - bv
@@ -91,10 +116,4 @@ def surface(S, scene, hit, o, d, time, m, m32):
                 w0 * nn[k, 0, 2] + bu * nn[k, 1, 2] + bv * nn[k, 2, 2])
         if nsum[0] * nsum[0] + nsum[1] * nsum[1] + nsum[2] * nsum[2] > 0.0:
             ns = normalize(cofactor_dir(m, nsum))
-    st = (bu, bv)
-    if F_UVS and flags & GP_HAS_UVS:
-        k = S.gp_uv_off[g] + prim_id
-        uv = S.tri_uv
-        st = (w0 * uv[k, 0, 0] + bu * uv[k, 1, 0] + bv * uv[k, 2, 0],
-              w0 * uv[k, 0, 1] + bu * uv[k, 1, 1] + bv * uv[k, 2, 1])
-    return p, ng, ns, st, g, mat
+    return p, ng, ns, triangle_st(S, g, prim_id, bu, bv), g, mat

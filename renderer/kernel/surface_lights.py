@@ -23,11 +23,13 @@ import math
 
 import numba as nb
 
-from .features import F_XF_MOTION
+from .features import F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
-from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID, SLI_FIRST,
-                     SLI_INST, SLI_INST_PRIM, SLI_MOVING)
+from .shapes import sphere_st, triangle_st
+from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID,
+                     SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING)
+from .textures import sample_texture
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, instance_transform
 from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
 
@@ -55,7 +57,8 @@ def _triangle(cdf, first, n, u):
 
 @nb.njit(**_JIT)
 def _triangle_point(L, j, u1, u2):
-    """(point, unit normal) uniformly by area on the triangles of surface light j."""
+    """(point, unit normal, (triangle, barycentrics b1, b2): where it is, `_texture_at`) uniformly by area
+    on the triangles of surface light j."""
     first = L.sl_i[j, SLI_FIRST]
     i, u = _triangle(L.sl_cdf, first, L.sl_i[j, SLI_COUNT], u1)
     tri = L.sl_tri[first + i]
@@ -67,7 +70,7 @@ def _triangle_point(L, j, u1, u2):
          b0 * tri[0, 2] + b1 * tri[1, 2] + b2 * tri[2, 2])
     e1 = (tri[1, 0] - tri[0, 0], tri[1, 1] - tri[0, 1], tri[1, 2] - tri[0, 2])
     e2 = (tri[2, 0] - tri[0, 0], tri[2, 1] - tri[0, 1], tri[2, 2] - tri[0, 2])
-    return q, normalize(cross(e1, e2))
+    return q, normalize(cross(e1, e2)), (float(i), b1, b2)
 
 
 @nb.njit(**_JIT)
@@ -112,15 +115,22 @@ def _ellipsoid_point(L, j, u1, u2):
 
 
 @nb.njit(**_JIT)
+def _object_dir(L, j, q):
+    """The object-space direction from the centre of the sphere or ellipsoid of static surface light j to
+    its world point q: A^-1 (q - centre), A its axes (a sphere's: its radius times the placement's linear
+    part, whose inverse the host stores for both)."""
+    f = L.sl_f[j]
+    v = (q[0] - f[SLF_CENTER], q[1] - f[SLF_CENTER + 1], q[2] - f[SLF_CENTER + 2])
+    return (f[SLF_INV] * v[0] + f[SLF_INV + 1] * v[1] + f[SLF_INV + 2] * v[2],
+            f[SLF_INV + 3] * v[0] + f[SLF_INV + 4] * v[1] + f[SLF_INV + 5] * v[2],
+            f[SLF_INV + 6] * v[0] + f[SLF_INV + 7] * v[1] + f[SLF_INV + 8] * v[2])
+
+
+@nb.njit(**_JIT)
 def _ellipsoid_area_at(L, j, p):
     """`_ellipsoid_area` at the point p of the ellipsoid of surface light j (n = A^-1 (p - centre),
     normalised: p is a ray's hit, on the surface to rounding)."""
-    f = L.sl_f[j]
-    v = (p[0] - f[SLF_CENTER], p[1] - f[SLF_CENTER + 1], p[2] - f[SLF_CENTER + 2])
-    n = normalize((f[SLF_INV] * v[0] + f[SLF_INV + 1] * v[1] + f[SLF_INV + 2] * v[2],
-                   f[SLF_INV + 3] * v[0] + f[SLF_INV + 4] * v[1] + f[SLF_INV + 5] * v[2],
-                   f[SLF_INV + 6] * v[0] + f[SLF_INV + 7] * v[1] + f[SLF_INV + 8] * v[2]))
-    return _ellipsoid_area(L, j, n)[0]
+    return _ellipsoid_area(L, j, normalize(_object_dir(L, j, p)))[0]
 
 
 @nb.njit(**_JIT)
@@ -142,10 +152,11 @@ def _moving_point(L, tr, j, time, u1, u2):
     _placement(L, tr, j, time)
     if L.sl_i[j, SLI_COUNT] == 0:
         q, n = _sphere_point(L, j, u1, u2)
+        at = n                                      # (object space: its direction from the centre)
     else:
-        q, n = _triangle_point(L, j, u1, u2)
+        q, n, at = _triangle_point(L, j, u1, u2)
     w = cofactor_dir(tr.m, n)
-    return xform_point(tr.m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w))
+    return xform_point(tr.m, q), normalize(w), L.sl_f[j, SLF_AREA] * math.sqrt(dot(w, w)), at
 
 
 @nb.njit(**_JIT)
@@ -163,6 +174,18 @@ def _moving_area(L, tr, j, time, ng):
 
 
 @nb.njit(**_JIT)
+def _texture_at(S, L, j, at):
+    """The emissiveColor texture of surface light j at a point of it, `at`: (triangle, b1, b2) on a mesh,
+    the object-space direction from the centre on a sphere or an ellipsoid; its texture coordinates are
+    those `shapes.surface` gives a ray's hit there."""
+    if L.sl_i[j, SLI_COUNT] == 0:
+        st = sphere_st(normalize(at))
+    else:
+        st = triangle_st(S, L.sl_i[j, SLI_GPRIM], int(at[0]), at[1], at[2])
+    return sample_texture(S, L.sl_i[j, SLI_EMISSION_TEX], st[0], st[1])
+
+
+@nb.njit(**_JIT)
 def sample_surface(S, L, tr, k, p, time, u1, u2):
     """The light sample of surface light k, as `light_sampling.sample_ld` gives one: (wi, dist, Le, pdf,
     delta = False) seen from p at ray time `time`.
@@ -172,13 +195,19 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
     j = k - L.surface_first
     area = L.sl_f[j, SLF_AREA]
     if F_XF_MOTION and L.sl_i[j, SLI_MOVING] != 0:
-        q, nrm, area = _moving_point(L, tr, j, time, u1, u2)
+        q, nrm, area, at = _moving_point(L, tr, j, time, u1, u2)
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
+        at = _object_dir(L, j, q)
     elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
+        at = _object_dir(L, j, q)
     else:
-        q, nrm = _triangle_point(L, j, u1, u2)
+        q, nrm, at = _triangle_point(L, j, u1, u2)
+    Le = (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2])
+    if F_TEXTURES and L.sl_i[j, SLI_EMISSION_TEX] >= 0:
+        c = _texture_at(S, L, j, at)
+        Le = (Le[0] * c[0], Le[1] * c[1], Le[2] * c[2])
     wi, d, d2 = toward(p, q)
     if d2 <= 0.0:
         return NONE
@@ -191,8 +220,7 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
     d = math.sqrt(dot(v, v))
     if not d > 0.0:
         return NONE
-    return (v[0] / d, v[1] / d, v[2] / d), d, (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2]), \
-        pdf, False
+    return (v[0] / d, v[1] / d, v[2] / d), d, Le, pdf, False
 
 
 @nb.njit(**_JIT)

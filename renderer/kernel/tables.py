@@ -51,7 +51,7 @@ class Table:
 MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROUGH', 1), ('IOR', 1),
                           ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
                           ('CLEARCOAT', 1), ('CC_ROUGH', 1)])
-MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1)])
+MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1), ('EMISSION_TEX', 1)])
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator
 # uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X)
 LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1),
@@ -84,7 +84,7 @@ LIGHT_TREE = Table('T', [('C', 3), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O'
 # (int64: its triangles, centre, radius and AREA are the object's, placed at a ray's time by Embree's matrix)
 SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1), ('CENTER', 3), ('RADIUS', 1), ('AXES', 9), ('INV', 9)])
 SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1), ('MOVING', 1), ('INST', 1),
-                                ('INST_PRIM', 1)])
+                                ('INST_PRIM', 1), ('EMISSION_TEX', 1), ('GPRIM', 1)])
 
 TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE, SURFACE_LIGHT_F, SURFACE_LIGHT_I)
 for _t in TABLES:

@@ -32,7 +32,8 @@ from .geometry import flattened
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
 _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
-_TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture'}
+_TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture',
+                   'emissiveColor': 'emission_texture'}
 
 
 class MaterialTable:
@@ -92,9 +93,12 @@ class MaterialTable:
                 emitter = Material(path=label, model=LAMBERTIAN, diffuse=(0.0, 0.0, 0.0), emission=radiance)
                 self._index[key] = self._add(emitter)
                 return self._index[key]
+            texture = -1                         # (an emissiveColor texture tints it where the glow does)
             if mode == 'materialGlowTintsLight' and base.model == PREVIEW_SURFACE and any(base.emission):
                 radiance = tuple(float(r * g) for r, g in zip(radiance, base.emission))
-            self._index[key] = self._add(dataclasses.replace(base, path=label, emission=radiance))
+                texture = base.emission_texture
+            self._index[key] = self._add(dataclasses.replace(base, path=label, emission=radiance,
+                                                             emission_texture=texture))
         return self._index[key]
 
     def _add(self, material: Material) -> int:
