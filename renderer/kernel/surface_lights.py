@@ -176,10 +176,10 @@ def _moving_area(L, tr, j, time, ng):
 @nb.njit(**_JIT)
 def _texture_at(S, L, j, at):
     """The emissiveColor texture of surface light j at a point of it, `at`: (triangle, b1, b2) on a mesh,
-    the object-space direction from the centre on a sphere or an ellipsoid; its texture coordinates are
-    those `shapes.surface` gives a ray's hit there."""
+    the world point on a static sphere or ellipsoid, the object-space direction from the centre on a
+    moving sphere; its texture coordinates are those `shapes.surface` gives a ray's hit there."""
     if L.sl_i[j, SLI_COUNT] == 0:
-        st = sphere_st(normalize(at))
+        st = sphere_st(normalize(at if L.sl_i[j, SLI_MOVING] != 0 else _object_dir(L, j, at)))
     else:
         st = triangle_st(S, L.sl_i[j, SLI_GPRIM], int(at[0]), at[1], at[2])
     return sample_texture(S, L.sl_i[j, SLI_EMISSION_TEX], st[0], st[1])
@@ -198,10 +198,10 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
         q, nrm, area, at = _moving_point(L, tr, j, time, u1, u2)
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
-        at = _object_dir(L, j, q)
+        at = q
     elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
-        at = _object_dir(L, j, q)
+        at = q
     else:
         q, nrm, at = _triangle_point(L, j, u1, u2)
     Le = (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2])
