@@ -381,9 +381,28 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
         if spheres and scale is None:
             return None
         placed_meshes = [((v.astype(np.float64) @ m[:, :3].T + m[:, 3]).astype(np.float32), t) for v, t in meshes]
-        placed_spheres = [np.array([[*(m[:, :3] @ cr[:3] + m[:, 3]), cr[3] * scale]], np.float32) for cr in spheres]
+        placed_spheres = [np.array([[*(m[:, :3] @ cr[:3] + m[:, 3]), cr[3] * scale]], np.float64) for cr in spheres]
         out.append((row, (placed_meshes, placed_spheres), list(range(len(meshes) + len(spheres)))))
     return out
+
+
+def _path_prototypes(built: 'BuiltScene', containers: list):
+    """The prototypes the path integrator's instances place: the built ones, except where a container holds
+    spheres (and the ellipsoids' unit sphere): those are built again with their spheres as user geometry
+    (`embree.Device.prototype_scene(user_spheres=True)`: the ray-sphere test in float64, 1.2-2x faster a
+    ray than Embree's SPHERE_POINT, RESULTS.md "Spheres as user geometry"), the cook integrator's keeping
+    Embree's own spheres (its images unchanged).  -> (prototypes, the new ones, to close once instanced)."""
+    protos, new = list(built.prototypes), []
+    for ci, c in enumerate(containers):
+        meshes, spheres = _container_shapes(c, _container_center(c))
+        spheres = [cr[None, :] for cr in spheres if cr is not None]
+        if spheres:
+            new.append(built.device.prototype_scene(meshes, spheres, user_spheres=True))
+            protos[ci] = new[-1]
+    if len(protos) > len(containers):                 # the ellipsoids' unit sphere (`build`)
+        new.append(built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])], user_spheres=True))
+        protos[len(containers)] = new[-1]
+    return protos, new
 
 
 def _mask_runs(masks: list[int]) -> list[tuple[int, int, int]]:
@@ -417,24 +436,30 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
       mask against an instance's before it enters, but against a primitive's only in a leaf; their geomIDs
       are those of `shape_geometry`'s order across them): Embree traverses one BVH per kind of geometry in a scene, and in
       a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
-      time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level")."""
+      time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level").
+    * Its spheres (placed, in the prototypes it instances, and the sphere lights) are user geometry, tested
+      in float64 (`_path_prototypes`); a scene with none of the above is traced in the built top level."""
     flat = _flat_geometry(built, containers)
-    if shapes is None and flat is None:
-        return None, -1, np.zeros((0, 3), np.int64)
     if flat is None:
-        (meshes, spheres, curves), masks = shapes
-        n_m, n_s = len(meshes), len(spheres)
-        lights, groups, group_masks = [], list(built.top.groups), [MASK_SURFACES] * len(built.top.groups)
-        for a, b, mask in _mask_runs(masks):
-            lights.append(built.device.prototype_scene(
-                meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a,
-                curves=curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)], masks=[mask] * (b - a)))
-            groups.append(InstanceGroup(np.array([len(built.prototypes) + len(lights) - 1], np.uint32),
-                                        np.eye(4, dtype=np.float32)[None, None, :3]))
-            group_masks.append(mask)
-        top = built.device.top_scene(list(built.prototypes) + lights, groups, masks=group_masks)
-        for light in lights:
-            light.close()                                 # the top level holds its own reference
+        protos, lights = _path_prototypes(built, containers)
+        if shapes is None and not lights:
+            return None, -1, np.zeros((0, 3), np.int64)
+        groups, group_masks = list(built.top.groups), [MASK_SURFACES] * len(built.top.groups)
+        if shapes is not None:
+            (meshes, spheres, curves), masks = shapes
+            n_m, n_s = len(meshes), len(spheres)
+            for a, b, mask in _mask_runs(masks):
+                lights.append(built.device.prototype_scene(
+                    meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a,
+                    curves=curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)], masks=[mask] * (b - a),
+                    user_spheres=True))
+                groups.append(InstanceGroup(np.array([len(protos)], np.uint32),
+                                            np.eye(4, dtype=np.float32)[None, None, :3]))
+                protos.append(lights[-1])
+                group_masks.append(mask)
+        top = built.device.top_scene(protos, groups, masks=group_masks)
+        for scene in lights:
+            scene.close()                                 # the top level holds its own reference
         return top, -1, np.zeros((0, 3), np.int64)
     base = light_group + 1
     direct, table = [], []
@@ -445,7 +470,7 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
         (meshes, spheres, curves), masks = shapes
         direct.append((base + len(table), masks, meshes, spheres, curves))
         table += [(light_group, 0, g) for g in range(len(meshes) + len(spheres) + len(curves))]
-    top = built.device.top_scene([], [], direct=direct)
+    top = built.device.top_scene([], [], direct=direct, user_spheres=True)
     return top, base, np.array(table, np.int64).reshape(-1, 3)
 
 

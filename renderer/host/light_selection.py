@@ -107,8 +107,8 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
     rows, `facing_groups`) of the light shapes, for BSDF rays to find them in O(log n) (`build.path_top`
     puts them in the path integrator's top level): rects and disks as two triangles each (a disk's
     circumscribed square; the kernel's exact test `light_sampling.hit_shape` rejects the corners), one mesh
-    per facing group (mask MASK_FACING << g) and one of the rest (MASK_LIGHT_SHAPES), spheres as sphere
-    points, cylinders as one segment of a round linear curve each (a capsule: Embree has no open
+    per facing group (mask MASK_FACING << g) and one of the rest (MASK_LIGHT_SHAPES), spheres as float64
+    rows (the path top level's user spheres), cylinders as one segment of a round linear curve each (a capsule: Embree has no open
     cylinder; the capsule is convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
     capsule there, and the exact test rejects the hits on the round caps), both MASK_LIGHT_SHAPES; light
     of a hit = prim_light[geom_off[geomID] + primID]."""
@@ -139,7 +139,7 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
         masks.append(MASK_FACING << g if g >= 0 else MASK_LIGHT_SHAPES)
     if round_:
         spheres.append(np.array([[*li_f[k, LF_M:LF_M + 12].reshape(3, 4)[:, 3], li_f[k, LF_RADIUS]]
-                                 for k in round_], np.float32))
+                                 for k in round_], np.float64))
         geom_off.append(len(prim_light))
         prim_light += round_
         masks.append(MASK_LIGHT_SHAPES)

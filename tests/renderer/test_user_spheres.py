@@ -1,0 +1,167 @@
+"""Spheres as Embree user geometry (`rtc.renderer.host.user_spheres`, the path integrator's top level) against
+the exact ray-sphere roots in float64 and against Embree's own SPHERE_POINT: the same hits, ids, normals,
+masks and occlusion, single rays and packets, in instances, far from the origin and from inside."""
+import gc
+
+import numpy as np
+import pytest
+
+from benchmarks import embree_loops
+from rtc.renderer.host.embree import Device, InstanceGroup
+from rtc.renderer.kernel import trace
+from tests.renderer.test_embree import probe, translation, _occluded
+
+INVALID = 0xFFFFFFFF
+
+
+@pytest.fixture(scope="module")
+def dev():
+    with Device(threads=2) as device:
+        yield device
+
+
+def _exact_t(o, d, c, r):
+    """Nearest root t >= 0 of |o + t d - c| = r per ray (float64; inf where the ray misses), with the
+    discriminant from the centre's distance to the line (no cancellation)."""
+    o, d, c = (np.asarray(x, np.float64) for x in (o, d, c))
+    oc = o - c
+    a = np.sum(d * d, 1)
+    b = np.sum(oc * d, 1)
+    cc = np.sum(oc * oc, 1) - r * r
+    l = oc - (b / a)[:, None] * d
+    disc = a * (r * r - np.sum(l * l, 1))
+    sq = np.sqrt(np.maximum(disc, 0.0))
+    q = -(b + np.copysign(sq, b))
+    t0, t1 = np.minimum(q / a, cc / q), np.maximum(q / a, cc / q)
+    t = np.where(t0 >= 0, t0, t1)
+    return np.where((disc >= 0) & (t >= 0), t, np.inf)
+
+
+def _rays(rng, n, centre, spread):
+    o = (np.asarray(centre) + rng.uniform(-spread, spread, (n, 3))).astype(np.float32)
+    target = np.asarray(centre) + rng.uniform(-1.5, 1.5, (n, 3))
+    d = target - o
+    return o, (d / np.linalg.norm(d, axis=1, keepdims=True)).astype(np.float32)
+
+
+@pytest.mark.parametrize("centre", [(0.0, 0.0, 0.0), (1e4, -2e4, 3e4)])
+def test_hits_are_the_exact_roots_and_agree_with_embrees_spheres(dev, centre):
+    rng = np.random.default_rng(1)
+    rows = np.array([[*centre, 1.0]])
+    user = dev.prototype_scene([], [rows], user_spheres=True)
+    point = dev.prototype_scene([], [rows.astype(np.float32)])
+    o, d = _rays(rng, 4000, centre, 6.0)
+    tu, ngu, uvu, idu = probe(user, o, d)
+    tp, ngp, _, idp = probe(point, o, d)
+    exact = _exact_t(o, d, rows[0, :3], 1.0)
+    hit = np.isfinite(exact)
+    assert 0.2 < hit.mean() < 0.9 and (np.linalg.norm(o - rows[0, :3], axis=1) < 1).sum() > 5   # some from inside
+    # where the exact answer is not a grazing ray, both representations find it; the user sphere to float32
+    grazing = np.abs(np.linalg.norm(np.cross(o - rows[0, :3], d), axis=1) - 1.0) < 1e-3
+    np.testing.assert_array_equal(np.isfinite(tu)[~grazing], hit[~grazing])
+    np.testing.assert_allclose(tu[hit & ~grazing], exact[hit & ~grazing], rtol=1e-6, atol=1e-6)
+    assert (idu[hit & ~grazing] == [0, 0, INVALID, INVALID]).all()
+    assert (idu[~np.isfinite(tu)] == INVALID).all()
+    same = np.isfinite(tu) & np.isfinite(tp)
+    assert (idu[same] == idp[same]).all()
+    # Ng = p - c (object space, unnormalised) and u = v = 0, as SPHERE_POINT reports them
+    p = o[same].astype(np.float64) + tu[same, None] * d[same] - rows[0, :3]
+    np.testing.assert_allclose(ngu[same], p, atol=2e-6 * max(1.0, np.abs(centre).max()))
+    np.testing.assert_allclose(ngu[same], ngp[same], atol=1e-3 * max(1.0, np.abs(centre).max() * 1e-2))
+    assert (uvu[same] == 0).all()
+    for s in (user, point):
+        s.close()
+
+
+def test_instanced_user_spheres_report_their_instance_and_object_space(dev):
+    rows = np.array([[0.0, 0.0, 0.0, 1.0], [3.0, 0.0, 0.0, 0.5]])
+    proto = dev.prototype_scene([], [rows[:1], rows[1:]], user_spheres=True)
+    M = np.array([[0.5, 0, 0, 0], [0, 1.5, 0, 1.5], [0, 0, 1, -4]], np.float32)   # an ellipsoid, row 1
+    top = dev.top_scene([proto], [InstanceGroup(np.zeros(2, np.uint32), np.stack([translation(100.0), M])[None])])
+    origin = np.array([0, 1.5, 0.0])
+    dirs = np.array([[0, 0, -4], [0.2, 0.5, -4], [-0.3, -0.5, -4.2]])
+    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+    t, ng, _, ids = probe(top, np.tile(origin, (3, 1)), dirs)
+    L_inv = np.linalg.inv(M[:, :3].astype(np.float64))
+    o_obj, d_obj = L_inv @ (origin - M[:, 3]), dirs @ L_inv.T
+    np.testing.assert_allclose(t, _exact_t(np.tile(o_obj, (3, 1)), d_obj, (0, 0, 0), 1.0), rtol=1e-6)
+    assert (ids == [0, 0, 0, 1]).all()              # primID 0, geomID 0, instID = group 0, instPrimID = row 1
+    np.testing.assert_allclose(ng, o_obj + t[:, None] * d_obj, atol=2e-6)
+    # the second geometry, 0.5 in radius at x = 3 of row 0 (translated to x = 103)
+    t2, _, _, ids2 = probe(top, [103.0, 0.0, 5.0], [0, 0, -1])
+    assert t2[0] == pytest.approx(4.5, rel=1e-7) and ids2[0].tolist() == [0, 1, 0, 0]
+    # occlusion stops at tfar, and a ray starting inside meets the far side
+    assert _occluded(top.handle, origin, np.array([0, 0, -1.0]), 3.5)
+    assert not _occluded(top.handle, origin, np.array([0, 0, -1.0]), 2.5)
+    t3, _, _, _ = probe(top, [100.0, 0.0, 0.0], [0, 0, 1])
+    assert t3[0] == pytest.approx(1.0, rel=1e-7)
+    top.close()
+    proto.close()
+
+
+def test_masks_packets_and_single_rays_agree(dev):
+    """A light-shape sphere (mask MASK_LIGHT_SHAPES) is passed by shadow rays (mask MASK_SURFACES) and met
+    by the rest; packets and single rays give the same hits as the exact roots."""
+    rng = np.random.default_rng(7)
+    rows = np.concatenate([rng.uniform(-3, 3, (30, 3)), rng.uniform(0.3, 0.9, (30, 1))], 1)
+    surf = dev.prototype_scene([], [rows], user_spheres=True)
+    lamp = dev.prototype_scene([], [np.array([[0.0, 4.0, 0.0, 0.8]])], user_spheres=True)
+    eye = np.eye(4, dtype=np.float32)[None, None, :3]
+    top = dev.top_scene([surf, lamp], [InstanceGroup(np.zeros(1, np.uint32), eye),
+                                       InstanceGroup(np.ones(1, np.uint32), eye)],
+                        masks=[trace.MASK_SURFACES, trace.MASK_LIGHT_SHAPES])
+    n = 20_000
+    o = rng.uniform(-5, 5, (n, 3)).astype(np.float32)
+    d = rng.normal(size=(n, 3)).astype(np.float32)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    rays = (o, d, np.zeros(n, np.float32), rng.uniform(1, 12, n).astype(np.float32), np.zeros(n, np.float32))
+    results = []
+    for kernel in (embree_loops.trace_rays, embree_loops.trace_rays16, embree_loops.trace_rays16_coherent):
+        t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
+        kernel(top.handle, *rays, t, ids)
+        results.append((t, ids))
+    (t1, ids1), *packets = results
+    for t16, ids16 in packets:
+        assert (ids16 == ids1).all()
+        np.testing.assert_array_equal(t16, t1)
+    hit = ids1[:, 1] != INVALID
+    assert 0.1 < hit.mean() < 0.9 and (ids1[hit, 2] == 1).sum() > 50      # the lamp is met
+    for surfaces in (False, True):
+        for loop in (embree_loops.occlude_rays, embree_loops.occlude_rays16):
+            out = np.empty(n, bool)
+            loop(top.handle, *rays, out, surfaces)
+            expected = hit if not surfaces else _any_surface(o, d, rays[3], rows)
+            assert (out == expected).mean() > 0.9999, (loop, surfaces)
+    top.close()
+    surf.close()
+    lamp.close()
+
+
+def _any_surface(o, d, tfar, rows):
+    """Whether each segment [0, tfar] meets any of the spheres (exact, float64)."""
+    out = np.zeros(len(o), bool)
+    for c in rows:
+        oc = o.astype(np.float64) - c[:3]
+        b = np.sum(oc * d, 1)
+        cc = np.sum(oc * oc, 1) - c[3] ** 2
+        disc = b * b - cc
+        sq = np.sqrt(np.maximum(disc, 0))
+        t0, t1 = -b - sq, -b + sq
+        out |= (disc >= 0) & (((t0 >= 0) & (t0 <= tfar)) | ((t1 >= 0) & (t1 <= tfar)))
+    return out
+
+
+def test_the_rows_outlive_every_python_handle():
+    """Embree reads the user spheres' rows through a raw pointer: the top scene keeps them alive after its
+    prototype's and the device's Python objects are closed and collected."""
+    device = Device()
+    proto = device.prototype_scene([], [np.array([[0.0, 0.0, -3.0, 1.0]])], user_spheres=True)
+    top = device.top_scene([proto], [InstanceGroup(np.zeros(1, np.uint32), translation()[None, None])])
+    proto.close()
+    device.close()
+    del proto, device
+    gc.collect()
+    np.zeros(1 << 20)                           # reuse freed memory, if any were freed
+    t, _, _, ids = probe(top, [0.0, 0.0, 0.0], [0, 0, -1])
+    assert t[0] == pytest.approx(2.0, rel=1e-7) and ids[0, 1] == 0
+    top.close()
