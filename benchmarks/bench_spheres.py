@@ -20,8 +20,8 @@ from pathlib import Path
 import numba
 import numpy as np
 
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-import embree_loops as EL                                          # noqa: E402
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # the repository root: numba caches the loops under
+from benchmarks import embree_loops as EL                         # noqa: E402  # the tests' module name
 
 from rtc.renderer.host.embree import Device                       # noqa: E402
 
@@ -56,8 +56,8 @@ def main(argv=None) -> int:
     r = rays(rng, a.rays)
     n = a.rays
     queries = {
-        'intersect1': lambda h, out: EL.trace_rays(h, *r, *out),
-        'intersect16': lambda h, out: EL.trace_rays16(h, *r, *out),
+        'intersect1': lambda h, out: EL.trace_rays(h, *r, out[0], out[1]),
+        'intersect16': lambda h, out: EL.trace_rays16(h, *r, out[0], out[1]),
         'occluded1': lambda h, out: EL.occlude_rays(h, *r, out[2]),
         'occluded16': lambda h, out: EL.occlude_rays16(h, *r, out[2]),
     }

@@ -69,18 +69,21 @@ def _roots(R, N, i, s):
     a = dx * dx + dy * dy + dz * dz
     b = ox * dx + oy * dy + oz * dz                   # half the linear coefficient
     c = ox * ox + oy * oy + oz * oz - s[3] * s[3]
+    if a == 0.0:
+        return False, 0.0, 0.0, (ox, oy, oz)
     # b^2 - a c from the centre's distance to the ray's line: no cancellation for a far sphere
-    k = b / a
+    inv_a = 1.0 / a
+    k = b * inv_a
     lx = ox - k * dx
     ly = oy - k * dy
     lz = oz - k * dz
     disc = a * (s[3] * s[3] - (lx * lx + ly * ly + lz * lz))
-    if not disc >= 0.0 or a == 0.0:
+    if not disc >= 0.0:
         return False, 0.0, 0.0, (ox, oy, oz)
     q = -(b + math.copysign(math.sqrt(disc), b))
     if q == 0.0:                                      # the origin on the sphere, the ray tangent
         return True, 0.0, 0.0, (ox, oy, oz)
-    t0 = q / a
+    t0 = q * inv_a
     t1 = c / q
     if t0 > t1:
         t0, t1 = t1, t0
