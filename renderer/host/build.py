@@ -438,7 +438,10 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
       a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
       time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level").
     * Its spheres (placed, in the prototypes it instances, and the sphere lights) are user geometry, tested
-      in float64 (`_path_prototypes`); a scene with none of the above is traced in the built top level."""
+      in float64 (`_path_prototypes`), except in an Embree scene that also holds the curves of cylinder
+      lights: Embree traverses a scene of curves and user geometry 1.6x slower than one of curves and
+      SPHERE_POINTs (RESULTS.md, "Spheres as user geometry"), so there the spheres stay Embree's.  A scene
+      with none of the above is traced in the built top level."""
     flat = _flat_geometry(built, containers)
     if flat is None:
         protos, lights = _path_prototypes(built, containers)
@@ -449,10 +452,10 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
             (meshes, spheres, curves), masks = shapes
             n_m, n_s = len(meshes), len(spheres)
             for a, b, mask in _mask_runs(masks):
+                tubes = curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)]
                 lights.append(built.device.prototype_scene(
-                    meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a,
-                    curves=curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)], masks=[mask] * (b - a),
-                    user_spheres=True))
+                    meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a, curves=tubes,
+                    masks=[mask] * (b - a), user_spheres=not tubes))
                 groups.append(InstanceGroup(np.array([len(protos)], np.uint32),
                                             np.eye(4, dtype=np.float32)[None, None, :3]))
                 protos.append(lights[-1])
@@ -470,7 +473,8 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
         (meshes, spheres, curves), masks = shapes
         direct.append((base + len(table), masks, meshes, spheres, curves))
         table += [(light_group, 0, g) for g in range(len(meshes) + len(spheres) + len(curves))]
-    top = built.device.top_scene([], [], direct=direct, user_spheres=True)
+    tubes = shapes is not None and len(shapes[0][2]) > 0
+    top = built.device.top_scene([], [], direct=direct, user_spheres=not tubes)
     return top, base, np.array(table, np.int64).reshape(-1, 3)
 
 

@@ -305,3 +305,40 @@ def test_a_camera_above_ceiling_lights_renders_them_unchanged_without_meeting_th
     a, b = res[FACING_GROUPS], res[0]
     np.testing.assert_array_equal(a.image, b.image)
     assert a.stats.rays_secondary < 0.97 * b.stats.rays_secondary and a.image.mean() > 0.01
+
+
+@pytest.mark.parametrize('tube', [False, True])
+def test_spheres_are_user_geometry_unless_they_would_share_a_bvh_with_a_cylinder_lights_curve(tube):
+    """The path top level tests spheres in float64 (user geometry): the ball's rows are kept for Embree's
+    callbacks, and its hits are at the exact root of the sphere.  With a cylinder light (an Embree curve)
+    in the same Embree scene they stay Embree's spheres (curves and user geometry together are traversed
+    1.6x slower): no rows kept, and the hits equal the cook top level's."""
+    desc = _scene(np.eye(4), [translate(2.5, 0.0, 0.0)])           # placed once each: traced flat
+    if tube:
+        desc.lights.append(D.Light(path='/tube', type=D.CYLINDER, matrix=translate(2.0, 3.0, -2.0),
+                                   radiance=(3.0,) * 3, radius=0.1, length=1.0))
+    with Renderer(desc) as r:
+        r.path_lights()
+        assert r._path_top.group_geom_ids == ()
+        assert bool(r._path_top.keep) == (not tube)
+    out, L, S = _compare(desc)
+    (cook, tc), (path, tp) = out['cook'], out['path']
+    ball = (path[:, 0] == 0) & (path[:, 1] == 1) & (path[:, 2] == 1)     # row 1 (floor and ball), geometry 1
+    assert ball.sum() > 20
+    np.testing.assert_array_equal(path[ball], cook[ball])
+    o, d = _rays()
+    eye = np.array([0.5, 5.0, 9.0])                                     # the rays are camera-relative
+    exact = _exact_ball_t(o[ball] + eye, d[ball], (-2.0, 0.7, 1.0), 0.7)
+    if tube:
+        np.testing.assert_array_equal(tp[ball], tc[ball])
+    else:
+        np.testing.assert_allclose(tp[ball], exact, rtol=3e-7)
+        assert np.abs(tp[ball] - exact).max() <= np.abs(tc[ball] - exact).max()
+
+
+def _exact_ball_t(o, d, c, r):
+    oc = o.astype(np.float64) - c
+    d = d.astype(np.float64)
+    b = np.sum(oc * d, 1)
+    disc = b * b - np.sum(d * d, 1) * (np.sum(oc * oc, 1) - r * r)
+    return (-b - np.sqrt(disc)) / np.sum(d * d, 1)
