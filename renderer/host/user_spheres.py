@@ -1,10 +1,12 @@
 """Spheres as Embree user geometry (``RTC_GEOMETRY_TYPE_USER``): the ray-sphere test in float64, in numba
 ``@cfunc`` callbacks that Embree calls from its traversal.
 
-Why: Embree's own ``RTC_GEOMETRY_TYPE_SPHERE_POINT`` costs a ray that reaches a sphere's BVH 25-45 ns more
-than this test does (a one-sphere scene: 47 against 22 ns a ray in 16-ray packets; RESULTS.md, "Spheres
-as user geometry"), as much as a 16k-triangle tessellation of the same sphere: its leaves are built for
-millions of points, not for the few large spheres of a scene.
+Why: Embree's own ``RTC_GEOMETRY_TYPE_SPHERE_POINT`` costs a ray that reaches a sphere as much as a 16k-triangle
+tessellation of it; with this test a one-sphere scene takes 20 against 39 ns a ray in ``rtcOccluded16``
+packets, 23 against 56 in ``rtcIntersect16``, 60 against 72 alone (RESULTS.md, "Spheres as user geometry";
+path renders of sphere scenes 1.08-1.16x faster a sample).  Not for point clouds: 10,000 spheres in one
+geometry are 2.5x slower in packets (Embree calls the callback per leaf for few lanes), and an Embree scene
+that holds curves too is traversed 1.6x slower (`build.path_top` keeps Embree's spheres there).
 
 The callbacks (Embree 4.4 structs, `/work/shared/embree.md` section 4, 64-bit):
 
