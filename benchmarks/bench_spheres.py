@@ -1,5 +1,5 @@
 """Embree's own spheres (RTC_GEOMETRY_TYPE_SPHERE_POINT, the cook integrator's) against rtc's user-geometry
-spheres (`rtc.renderer.host.user_spheres`, the path integrator's): the same rays traced bare, alternating.
+spheres (`rtc.renderer.host.user_geometry`, the path integrator's): the same rays traced bare, alternating.
 
     python benchmarks/bench_spheres.py --threads 1
 
@@ -65,7 +65,7 @@ def main(argv=None) -> int:
     with Device(threads=a.threads) as dev:
         for name, (meshes, spheres) in scenes(rng).items():
             built = {kind: dev.prototype_scene(meshes, [s if kind == 'user' else s.astype(np.float32) for s in spheres],
-                                               user_spheres=kind == 'user') for kind in ('point', 'user')}
+                                               user_shapes=kind == 'user') for kind in ('point', 'user')}
             for q, run in queries.items():
                 times = {k: [] for k in built}
                 outs = {k: (np.empty(n, np.float32), np.empty((n, 4), np.uint32), np.empty(n, bool)) for k in built}

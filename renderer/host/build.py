@@ -389,7 +389,7 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
 def _path_prototypes(built: 'BuiltScene', containers: list):
     """The prototypes the path integrator's instances place: the built ones, except where a container holds
     spheres (and the ellipsoids' unit sphere): those are built again with their spheres as user geometry
-    (`embree.Device.prototype_scene(user_spheres=True)`: the ray-sphere test in float64, 1.2-2x faster a
+    (`embree.Device.prototype_scene(user_shapes=True)`: the ray-sphere test in float64, 1.2-2x faster a
     ray than Embree's SPHERE_POINT, RESULTS.md "Spheres as user geometry"), the cook integrator's keeping
     Embree's own spheres (its images unchanged).  -> (prototypes, the new ones, to close once instanced)."""
     protos, new = list(built.prototypes), []
@@ -397,10 +397,10 @@ def _path_prototypes(built: 'BuiltScene', containers: list):
         meshes, spheres = _container_shapes(c, _container_center(c))
         spheres = [cr[None, :] for cr in spheres if cr is not None]
         if spheres:
-            new.append(built.device.prototype_scene(meshes, spheres, user_spheres=True))
+            new.append(built.device.prototype_scene(meshes, spheres, user_shapes=True))
             protos[ci] = new[-1]
     if len(protos) > len(containers):                 # the ellipsoids' unit sphere (`build`)
-        new.append(built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])], user_spheres=True))
+        new.append(built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])], user_shapes=True))
         protos[len(containers)] = new[-1]
     return protos, new
 
@@ -437,11 +437,11 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
       are those of `shape_geometry`'s order across them): Embree traverses one BVH per kind of geometry in a scene, and in
       a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
       time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level").
-    * Its spheres (placed, in the prototypes it instances, and the sphere lights) are user geometry, tested
-      in float64 (`_path_prototypes`), except in an Embree scene that also holds the curves of cylinder
-      lights: Embree traverses a scene of curves and user geometry 1.6x slower than one of curves and
-      SPHERE_POINTs (RESULTS.md, "Spheres as user geometry"), so there the spheres stay Embree's.  A scene
-      with none of the above is traced in the built top level."""
+    * Its spheres (placed, in the prototypes it instances, and the sphere lights) and the cylinder lights'
+      shapes are user geometry, tested in float64 (`user_geometry.py`, `_path_prototypes`): the cylinders
+      exact (open) where Embree's round linear curves were capsules, and no Embree curve beside user
+      geometry (the two in one Embree scene are traversed 1.6x slower: RESULTS.md, "Spheres as user
+      geometry").  A scene with none of the above is traced in the built top level."""
     flat = _flat_geometry(built, containers)
     if flat is None:
         protos, lights = _path_prototypes(built, containers)
@@ -452,10 +452,10 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
             (meshes, spheres, curves), masks = shapes
             n_m, n_s = len(meshes), len(spheres)
             for a, b, mask in _mask_runs(masks):
-                tubes = curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)]
                 lights.append(built.device.prototype_scene(
-                    meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a, curves=tubes,
-                    masks=[mask] * (b - a), user_spheres=not tubes))
+                    meshes[a:b], spheres[max(a - n_m, 0):max(b - n_m, 0)], first_id=a,
+                    curves=curves[max(a - n_m - n_s, 0):max(b - n_m - n_s, 0)], masks=[mask] * (b - a),
+                    user_shapes=True))
                 groups.append(InstanceGroup(np.array([len(protos)], np.uint32),
                                             np.eye(4, dtype=np.float32)[None, None, :3]))
                 protos.append(lights[-1])
@@ -473,8 +473,7 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
         (meshes, spheres, curves), masks = shapes
         direct.append((base + len(table), masks, meshes, spheres, curves))
         table += [(light_group, 0, g) for g in range(len(meshes) + len(spheres) + len(curves))]
-    tubes = shapes is not None and len(shapes[0][2]) > 0
-    top = built.device.top_scene([], [], direct=direct, user_spheres=not tubes)
+    top = built.device.top_scene([], [], direct=direct, user_shapes=True)
     return top, base, np.array(table, np.int64).reshape(-1, 3)
 
 

@@ -23,7 +23,7 @@ internally (a scene retains its device, an instance array retains its prototype 
 closing objects in any order is safe.  Geometry data is copied into Embree-owned buffers
 (``rtcSetNewGeometryBuffer``): no numpy array has to outlive the call, and steady-state memory is
 the same as with shared buffers (measured, see ``benchmarks/RESULTS.md``).  The one exception is user
-geometry (the path integrator's spheres, ``user_spheres.py``), whose rows Embree reads through a raw
+geometry (the path integrator's spheres and cylinders, ``user_geometry.py``), whose rows Embree reads through a raw
 pointer: a ``Scene`` keeps them (``Scene.keep``), with those of every prototype it instances.
 """
 from __future__ import annotations
@@ -259,7 +259,7 @@ class Device:
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],
                         spheres: list[np.ndarray], robust: bool = True, curves: tuple = (),
-                        masks: list[int] | None = None, first_id: int = 0, user_spheres: bool = False) -> Scene:
+                        masks: list[int] | None = None, first_id: int = 0, user_shapes: bool = False) -> Scene:
         """One Embree scene (one BVH) holding a container's geometry.
 
         meshes:  [(vertices float32 (n, 3), triangles uint32 (m, 3))] -> TRIANGLE geometries,
@@ -271,9 +271,10 @@ class Device:
         robust:  RTC_SCENE_FLAG_ROBUST (watertight; no leaks through shared edges far from the origin).
         masks:   a ray mask per geometry, in geomID order (None: Embree's default).
         first_id: the geomID of the first geometry (the others follow it).
-        user_spheres: the spheres as user geometry (`user_spheres.py`: the ray-sphere test in float64, the rows
-                 taken in float64; faster than SPHERE_POINT for the few large spheres of a scene) instead of
-                 SPHERE_POINT geometries; their hits report the same fields.
+        user_shapes: the spheres and the curves' segments as user geometry (`user_geometry.py`: their ray tests
+                 in float64, the rows taken in float64; a segment is then the open cylinder, without the
+                 capsule's round ends) instead of SPHERE_POINT and round linear curve geometries; their hits
+                 report the same fields.
         Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
         spheres p - c; u, v are the barycentric weights of v1, v2.
         """
@@ -281,16 +282,16 @@ class Device:
 
         def build(scene):
             keep.extend(self._attach_shapes(scene, first_id, meshes, spheres, curves, mask=masks,
-                                            user_spheres=user_spheres))
+                                            user_shapes=user_shapes))
             return ()
         return self._build_scene(build, robust, "prototype scene", keep)
 
     def _attach_shapes(self, scene, first_id: int, meshes, spheres, curves=(), mask: int | list | None = None,
-                       user_spheres: bool = False) -> list:
+                       user_shapes: bool = False) -> list:
         """Attach meshes, spheres and curves (as `prototype_scene` describes them) to `scene` as geomIDs
         first_id, first_id + 1, ... in that order; mask: the ray mask of every geometry, or a list of one
         per geometry in that order, or None (Embree's default).  -> the arrays Embree reads that must
-        outlive the scene (the user spheres' rows)."""
+        outlive the scene (the user geometry's rows)."""
         n = len(meshes) + len(spheres) + len(curves)
         masks = list(mask) if isinstance(mask, (list, tuple)) else [mask] * n
         if len(masks) != n:
@@ -306,15 +307,19 @@ class Device:
         first_id += len(meshes)
         keep = []
         for i, centers_radii in enumerate(spheres):
-            if user_spheres:
-                keep.append(self._attach_user_spheres(scene, first_id + i, _as_rows(centers_radii, 4, "sphere centers_radii"),
-                                                      masks[len(meshes) + i]))
+            if user_shapes:
+                keep.append(self._attach_user(scene, first_id + i, "spheres",
+                                              _as_rows(centers_radii, 4, "sphere centers_radii"), masks[len(meshes) + i]))
                 continue
             self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_SPHERE_POINT, [
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32,
                  _as_rows(centers_radii, 4, "sphere centers_radii"))], mask=masks[len(meshes) + i])
         first_id += len(spheres)
         for i, segments in enumerate(curves):
+            if user_shapes:
+                keep.append(self._attach_user(scene, first_id + i, "cylinders", segments,
+                                              masks[len(meshes) + len(spheres) + i]))
+                continue
             segments = np.asarray(segments, np.float32).reshape(-1, 2, 4)
             self._attach(scene, first_id + i, RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE, [
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
@@ -324,7 +329,7 @@ class Device:
 
     def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,
                   quaternion_motion: bool | None = None, masks: list[int] | None = None,
-                  direct: list[tuple] = (), user_spheres: bool = False) -> Scene:
+                  direct: list[tuple] = (), user_shapes: bool = False) -> Scene:
         """The top-level scene: one INSTANCE_ARRAY geometry per group, geomID = group index.
 
         Every group instances the whole ``prototypes`` list through an index buffer
@@ -340,7 +345,7 @@ class Device:
         takes it, already placed (camera-relative world space), attached to the top level itself as
         geomIDs first, first + 1, ... (meshes, then spheres, then curves): geometry placed once needs no
         instance around it.
-        user_spheres: `direct`'s spheres as user geometry (see `prototype_scene`).
+        user_shapes: `direct`'s spheres and curves as user geometry (see `prototype_scene`).
         """
         keep = [p.keep for p in prototypes]          # what the instanced prototypes' user geometry reads
         handles = (ctypes.c_void_p * max(len(prototypes), 1))(*[p.handle for p in prototypes])
@@ -373,7 +378,7 @@ class Device:
                              mask=None if masks is None else masks[geom_id])
             for first, mask, meshes, spheres, curves in direct:
                 keep.extend(self._attach_shapes(scene, first, meshes, spheres, curves, mask=mask,
-                                                user_spheres=user_spheres))
+                                                user_shapes=user_shapes))
             return tuple(range(len(groups)))
         return self._build_scene(build, robust, "top scene", keep)
 
@@ -421,24 +426,28 @@ class Device:
         finally:
             rtcReleaseGeometry(geometry)    # the scene holds its own reference
 
-    def _attach_user_spheres(self, scene, geom_id: int, centers_radii: np.ndarray, mask: int | None) -> np.ndarray:
-        """Attach spheres (rows x, y, z, r) as user geometry ``geom_id`` (`user_spheres.py`); -> the float64
-        rows its callbacks read, which must outlive every scene that holds it."""
-        from . import user_spheres as _user_spheres        # its callbacks load only where spheres need them
-        data = _user_spheres.rows(centers_radii)
+    def _attach_user(self, scene, geom_id: int, kind: str, data, mask: int | None) -> np.ndarray:
+        """Attach `kind` ("spheres": rows x, y, z, r; "cylinders": segments (k, 2, 4)) as user geometry
+        ``geom_id`` (`user_geometry.py`); -> the float64 rows its callbacks read, which must outlive every
+        scene that holds it."""
+        from . import user_geometry as _user           # its callbacks load only where a scene needs them
+        if kind == "spheres":
+            data, callbacks = _user.sphere_rows(data), _user.SPHERES
+        else:
+            data, callbacks = _user.cylinder_rows(data), _user.CYLINDERS
         geometry = rtcNewGeometry(self.handle, RTC_GEOMETRY_TYPE_USER)
         self.check(f"geometry {geom_id}: rtcNewGeometry(user)")
         try:
             rtcSetGeometryUserPrimitiveCount(geometry, len(data))
             rtcSetGeometryUserData(geometry, data.ctypes.data)
-            rtcSetGeometryBoundsFunction(geometry, _user_spheres.BOUNDS, None)
-            rtcSetGeometryIntersectFunction(geometry, _user_spheres.INTERSECT)
-            rtcSetGeometryOccludedFunction(geometry, _user_spheres.OCCLUDED)
+            rtcSetGeometryBoundsFunction(geometry, callbacks[0], None)
+            rtcSetGeometryIntersectFunction(geometry, callbacks[1])
+            rtcSetGeometryOccludedFunction(geometry, callbacks[2])
             if mask is not None:
                 rtcSetGeometryMask(geometry, mask)
             rtcCommitGeometry(geometry)
             rtcAttachGeometryByID(scene, geometry, geom_id)
-            self.check(f"geometry {geom_id}: user spheres")
+            self.check(f"geometry {geom_id}: user {kind}")
         finally:
             rtcReleaseGeometry(geometry)
         return data
@@ -468,7 +477,7 @@ class Scene:
     group_geom_ids: top scene: the geomID of each ``InstanceGroup`` (== its index in ``groups``),
                     so a hit's ``instID`` selects the group and ``instPrimID`` the row in it;
                     () for a prototype scene (whose geomIDs are its meshes, then sphere sets).
-    keep:           the host arrays Embree reads through raw pointers (user spheres' rows), its own and
+    keep:           the host arrays Embree reads through raw pointers (user geometry's rows), its own and
                     those of the prototypes it instances: they live as long as this object, which keeps
                     them after close() too (a scene that instances this one may still be traced).
     """

@@ -108,9 +108,8 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
     puts them in the path integrator's top level): rects and disks as two triangles each (a disk's
     circumscribed square; the kernel's exact test `light_sampling.hit_shape` rejects the corners), one mesh
     per facing group (mask MASK_FACING << g) and one of the rest (MASK_LIGHT_SHAPES), spheres as float64
-    rows (the path top level's user spheres), cylinders as one segment of a round linear curve each (a capsule: Embree has no open
-    cylinder; the capsule is convex and holds the cylinder, so a ray that enters the cylinder's side from outside enters the
-    capsule there, and the exact test rejects the hits on the round caps), both MASK_LIGHT_SHAPES; light
+    rows, cylinders as one segment each (its two ends and the radius, float64), both MASK_LIGHT_SHAPES and
+    both tested exactly by the path top level's user geometry (`user_geometry.py`: the open cylinder); light
     of a hit = prim_light[geom_off[geomID] + primID]."""
     planar = [k for k in shapes if desc.lights[k].type in (D.RECT, D.DISK)]
     round_ = [k for k in shapes if desc.lights[k].type == D.SPHERE]
@@ -150,7 +149,7 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
             m = li_f[k, LF_M:LF_M + 12].reshape(3, 4)
             half = 0.5 * li_f[k, LF_LENGTH] * m[:, 0] / np.linalg.norm(m[:, 0])
             segments.append([[*(m[:, 3] - half), li_f[k, LF_RADIUS]], [*(m[:, 3] + half), li_f[k, LF_RADIUS]]])
-        curves.append(np.array(segments, np.float32))
+        curves.append(np.array(segments, np.float64))
         geom_off.append(len(prim_light))
         prim_light += tubes
         masks.append(MASK_LIGHT_SHAPES)

@@ -1,4 +1,4 @@
-"""Spheres as Embree user geometry (`rtc.renderer.host.user_spheres`, the path integrator's top level) against
+"""Spheres as Embree user geometry (`rtc.renderer.host.user_geometry`, the path integrator's top level) against
 the exact ray-sphere roots in float64 and against Embree's own SPHERE_POINT: the same hits, ids, normals,
 masks and occlusion, single rays and packets, in instances, far from the origin and from inside."""
 import gc
@@ -48,7 +48,7 @@ def _rays(rng, n, centre, spread):
 def test_hits_are_the_exact_roots_and_agree_with_embrees_spheres(dev, centre):
     rng = np.random.default_rng(1)
     rows = np.array([[*centre, 1.0]])
-    user = dev.prototype_scene([], [rows], user_spheres=True)
+    user = dev.prototype_scene([], [rows], user_shapes=True)
     point = dev.prototype_scene([], [rows.astype(np.float32)])
     o, d = _rays(rng, 4000, centre, 6.0)
     tu, ngu, uvu, idu = probe(user, o, d)
@@ -75,7 +75,7 @@ def test_hits_are_the_exact_roots_and_agree_with_embrees_spheres(dev, centre):
 
 def test_instanced_user_spheres_report_their_instance_and_object_space(dev):
     rows = np.array([[0.0, 0.0, 0.0, 1.0], [3.0, 0.0, 0.0, 0.5]])
-    proto = dev.prototype_scene([], [rows[:1], rows[1:]], user_spheres=True)
+    proto = dev.prototype_scene([], [rows[:1], rows[1:]], user_shapes=True)
     M = np.array([[0.5, 0, 0, 0], [0, 1.5, 0, 1.5], [0, 0, 1, -4]], np.float32)   # an ellipsoid, row 1
     top = dev.top_scene([proto], [InstanceGroup(np.zeros(2, np.uint32), np.stack([translation(100.0), M])[None])])
     origin = np.array([0, 1.5, 0.0])
@@ -104,8 +104,8 @@ def test_masks_packets_and_single_rays_agree(dev):
     by the rest; packets and single rays give the same hits as the exact roots."""
     rng = np.random.default_rng(7)
     rows = np.concatenate([rng.uniform(-3, 3, (30, 3)), rng.uniform(0.3, 0.9, (30, 1))], 1)
-    surf = dev.prototype_scene([], [rows], user_spheres=True)
-    lamp = dev.prototype_scene([], [np.array([[0.0, 4.0, 0.0, 0.8]])], user_spheres=True)
+    surf = dev.prototype_scene([], [rows], user_shapes=True)
+    lamp = dev.prototype_scene([], [np.array([[0.0, 4.0, 0.0, 0.8]])], user_shapes=True)
     eye = np.eye(4, dtype=np.float32)[None, None, :3]
     top = dev.top_scene([surf, lamp], [InstanceGroup(np.zeros(1, np.uint32), eye),
                                        InstanceGroup(np.ones(1, np.uint32), eye)],
@@ -155,7 +155,7 @@ def test_the_rows_outlive_every_python_handle():
     """Embree reads the user spheres' rows through a raw pointer: the top scene keeps them alive after its
     prototype's and the device's Python objects are closed and collected."""
     device = Device()
-    proto = device.prototype_scene([], [np.array([[0.0, 0.0, -3.0, 1.0]])], user_spheres=True)
+    proto = device.prototype_scene([], [np.array([[0.0, 0.0, -3.0, 1.0]])], user_shapes=True)
     top = device.top_scene([proto], [InstanceGroup(np.zeros(1, np.uint32), translation()[None, None])])
     proto.close()
     device.close()
@@ -165,3 +165,60 @@ def test_the_rows_outlive_every_python_handle():
     t, _, _, ids = probe(top, [0.0, 0.0, 0.0], [0, 0, -1])
     assert t[0] == pytest.approx(2.0, rel=1e-7) and ids[0, 1] == 0
     top.close()
+
+
+def _exact_cylinder_t(o, d, p0, p1, r):
+    """Nearest t >= 0 where the ray crosses the side of the open cylinder (float64; inf if none)."""
+    o, d = np.asarray(o, np.float64), np.asarray(d, np.float64)
+    ax = np.asarray(p1, np.float64) - p0
+    L2 = ax @ ax
+    oc = o - p0
+    sa, da = oc @ ax / L2, d @ ax / L2
+    op, dp = oc - sa[:, None] * ax, d - da[:, None] * ax
+    a, b, c = np.sum(dp * dp, 1), np.sum(op * dp, 1), np.sum(op * op, 1) - r * r
+    disc = b * b - a * c
+    sq = np.sqrt(np.maximum(disc, 0))
+    out = np.full(len(o), np.inf)
+    for t in ((-b + sq) / a, (-b - sq) / a):
+        ok = (disc >= 0) & (t >= 0) & (sa + t * da >= 0) & (sa + t * da <= 1)
+        out = np.where(ok, np.minimum(out, t), out)
+    return out
+
+
+def test_cylinders_are_the_exact_open_cylinder(dev):
+    """A segment of `curves` as user geometry is the open cylinder (Embree's round linear curve is the
+    capsule around it): its hits are the exact crossings of the side between the two ends, rays through the
+    open ends meet the inside of the wall, and nothing meets the round caps a capsule would have."""
+    rng = np.random.default_rng(4)
+    p0, p1, r = np.array([0.3, -1.0, 0.2]), np.array([-0.2, 1.5, 0.4]), 0.4
+    seg = np.array([[[*p0, r], [*p1, r]]])
+    user = dev.prototype_scene([], [], curves=[seg], user_shapes=True)
+    capsule = dev.prototype_scene([], [], curves=[seg.astype(np.float32)])
+    o = rng.uniform(-4, 4, (5000, 3)).astype(np.float32)
+    target = p0 + rng.uniform(-0.3, 1.3, (5000, 1)) * (p1 - p0) + rng.uniform(-0.6, 0.6, (5000, 3))
+    d = (target - o).astype(np.float32)
+    d /= np.linalg.norm(d, axis=1, keepdims=True)
+    t, ng, _, ids = probe(user, o, d)
+    exact = _exact_cylinder_t(o, d, p0, p1, r)
+    hit = np.isfinite(exact)
+    assert 0.2 < hit.mean() < 0.9
+    np.testing.assert_array_equal(np.isfinite(t), hit)
+    np.testing.assert_allclose(t[hit], exact[hit], rtol=1e-6, atol=1e-6)
+    assert (ids[hit] == [0, 0, INVALID, INVALID]).all()
+    # Ng: the radial vector, of length r, perpendicular to the axis
+    u = (p1 - p0) / np.linalg.norm(p1 - p0)
+    np.testing.assert_allclose(np.linalg.norm(ng[hit], axis=1), r, rtol=1e-5)
+    np.testing.assert_allclose(ng[hit] @ u, 0.0, atol=1e-5)
+    # the capsule also meets the round caps: more hits, never fewer
+    tc, _, _, _ = probe(capsule, o, d)
+    assert np.isfinite(tc)[hit].all() and np.isfinite(tc).sum() > hit.sum()
+    # down the axis from outside the end: through the open end, then the far end is open too: no hit
+    t_axis, _, _, _ = probe(user, p1 + 2 * u, -u)
+    assert t_axis[0] == np.inf
+    # from inside, across: the wall at distance r
+    t_in, _, _, _ = probe(user, (p0 + p1) / 2, np.cross(u, [1.0, 0.0, 0.0]) / np.linalg.norm(np.cross(u, [1.0, 0.0, 0.0])))
+    assert t_in[0] == pytest.approx(r, rel=1e-6)
+    assert _occluded(user.handle, (p0 + p1) / 2, np.cross(u, [0.0, 0.0, 1.0]) / np.linalg.norm(np.cross(u, [0, 0, 1.0])), r * 1.01)
+    assert not _occluded(user.handle, (p0 + p1) / 2, np.cross(u, [0.0, 0.0, 1.0]) / np.linalg.norm(np.cross(u, [0, 0, 1.0])), r * 0.99)
+    for s in (user, capsule):
+        s.close()
