@@ -167,32 +167,33 @@ def _sphere_bounds(args):
     _box(args, (s[0] - r, s[1] - r, s[2] - r), (s[0] + r, s[1] + r, s[2] + r))
 
 
+@nb.njit(cache=True, inline='always')
+def _sphere_t(R, N, i, s):
+    """(t of the nearest crossing of sphere row s at or beyond tnear and within tfar, or -1; p - c there)."""
+    o, d = _lane_ray(R, N, i)
+    real, t0, t1, oc = _sphere(o, d, s)
+    tnear = np.float64(R[_TNEAR * N + i])
+    t = t0 if t0 >= tnear else t1
+    if real and tnear <= t <= R[_TFAR * N + i]:
+        return t, (oc[0] + t * d[0], oc[1] + t * d[1], oc[2] + t * d[2])
+    return -1.0, (0.0, 0.0, 0.0)
+
+
 @nb.cfunc(_SIG, nopython=True, cache=True)
 def _sphere_intersect(args):
     n, geom, prim, valid, s, context, R, RI = _args(args, SPHERE_FLOATS)
     for i in range(n):
-        if valid[i] == 0:
-            continue
-        o, d = _lane_ray(R, n, i)
-        real, t0, t1, oc = _sphere(o, d, s)
-        tnear = np.float64(R[_TNEAR * n + i])
-        t = t0 if t0 >= tnear else t1
-        if real and tnear <= t <= R[_TFAR * n + i]:
-            _report(R, RI, n, i, t, (oc[0] + t * d[0], oc[1] + t * d[1], oc[2] + t * d[2]), (prim, geom),
-                    context)
+        if valid[i] != 0:
+            t, ng = _sphere_t(R, n, i, s)
+            if t >= 0.0:
+                _report(R, RI, n, i, t, ng, (prim, geom), context)
 
 
 @nb.cfunc(_SIG, nopython=True, cache=True)
 def _sphere_occluded(args):
     n, _, _, valid, s, _, R, _ = _args(args, SPHERE_FLOATS)
     for i in range(n):
-        if valid[i] == 0:
-            continue
-        o, d = _lane_ray(R, n, i)
-        real, t0, t1, _ = _sphere(o, d, s)
-        tnear = np.float64(R[_TNEAR * n + i])
-        tfar = np.float64(R[_TFAR * n + i])
-        if real and ((tnear <= t0 <= tfar) or (tnear <= t1 <= tfar)):
+        if valid[i] != 0 and _sphere_t(R, n, i, s)[0] >= 0.0:
             R[_TFAR * n + i] = -np.inf
 
 
