@@ -49,6 +49,9 @@ class BuiltScene:
     has_textures: bool
     has_dome: bool
     n_instances: int
+    # the path integrator's prototypes where they differ from `prototypes` (`_path_prototypes`): built on
+    # its first use, then kept, and taken over by a `reuse` build as the prototypes are (a shot's frames)
+    path_prototypes: dict | None = None
 
     @property
     def handle(self) -> int:
@@ -56,7 +59,7 @@ class BuiltScene:
 
     def close(self):
         self.top.close()
-        for p in self.prototypes:
+        for p in list(self.prototypes) + list((self.path_prototypes or {}).values()):
             p.close()
         if self.device is not None:          # None once another build took the device over (`reuse`)
             self.device.close()
@@ -386,23 +389,25 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
     return out
 
 
-def _path_prototypes(built: 'BuiltScene', containers: list):
+def _path_prototypes(built: 'BuiltScene', containers: list) -> list:
     """The prototypes the path integrator's instances place: the built ones, except where a container holds
     spheres (and the ellipsoids' unit sphere): those are built again with their spheres as user geometry
     (`embree.Device.prototype_scene(user_shapes=True)`: the ray-sphere test in float64, 1.2-2x faster a
     ray than Embree's SPHERE_POINT, RESULTS.md "Spheres as user geometry"), the cook integrator's keeping
-    Embree's own spheres (its images unchanged).  -> (prototypes, the new ones, to close once instanced)."""
-    protos, new = list(built.prototypes), []
-    for ci, c in enumerate(containers):
-        meshes, spheres = _container_shapes(c, _container_center(c))
-        spheres = [cr[None, :] for cr in spheres if cr is not None]
-        if spheres:
-            new.append(built.device.prototype_scene(meshes, spheres, user_shapes=True))
-            protos[ci] = new[-1]
-    if len(protos) > len(containers):                 # the ellipsoids' unit sphere (`build`)
-        new.append(built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])], user_shapes=True))
-        protos[len(containers)] = new[-1]
-    return protos, new
+    Embree's own spheres (its images unchanged).  Built once a BuiltScene (`built.path_prototypes`, which a
+    shot's next frame takes over with the prototypes)."""
+    if built.path_prototypes is None:
+        own = {}
+        for ci, c in enumerate(containers):
+            meshes, spheres = _container_shapes(c, _container_center(c))
+            spheres = [cr[None, :] for cr in spheres if cr is not None]
+            if spheres:
+                own[ci] = built.device.prototype_scene(meshes, spheres, user_shapes=True)
+        if len(built.prototypes) > len(containers):       # the ellipsoids' unit sphere (`build`)
+            own[len(containers)] = built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])],
+                                                                user_shapes=True)
+        built.path_prototypes = own
+    return [built.path_prototypes.get(k, p) for k, p in enumerate(built.prototypes)]
 
 
 def _mask_runs(masks: list[int]) -> list[tuple[int, int, int]]:
@@ -444,8 +449,8 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
       geometry").  A scene with none of the above is traced in the built top level."""
     flat = _flat_geometry(built, containers)
     if flat is None:
-        protos, lights = _path_prototypes(built, containers)
-        if shapes is None and not lights:
+        protos, lights = _path_prototypes(built, containers), []
+        if shapes is None and not built.path_prototypes:
             return None, -1, np.zeros((0, 3), np.int64)
         groups, group_masks = list(built.top.groups), [MASK_SURFACES] * len(built.top.groups)
         if shapes is not None:
@@ -489,6 +494,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     tables = _Tables()
     dev = reuse.device if reuse is not None else Device(threads=threads)
     kept = list(reuse.prototypes) if reuse is not None else []
+    kept_path = reuse.path_prototypes if reuse is not None else None
     protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = _prototypes(dev, containers, tables, kept)
 
     rows = {'proto': [np.asarray(inst.container, np.int64)], 'world': [np.asarray(inst.matrices, np.float64)],
@@ -521,7 +527,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     top, perm, grp_base = _top_level(dev, protos, in_proto, xf, K)
     if reuse is not None:                             # the prototypes and the device now belong to this build
         reuse.top.close()
-        reuse.prototypes, reuse.device = [], None
+        reuse.prototypes, reuse.device, reuse.path_prototypes = [], None, None
 
     mat_i, mat_f = _material_tables(desc.materials)
     tex_i, tex_f, tex_data = _texture_tables(desc.textures)
@@ -550,4 +556,4 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     )
     return BuiltScene(device=dev, prototypes=protos, top=top, data=data, origin=origin, motion_steps=K,
                       has_textures=bool(desc.textures), has_dome=bool(np.any(li_type == D.DOME)),
-                      n_instances=len(perm))
+                      n_instances=len(perm), path_prototypes=kept_path)

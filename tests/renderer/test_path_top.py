@@ -339,3 +339,29 @@ def _exact_ball_t(o, d, c, r):
     b = np.sum(oc * d, 1)
     disc = b * b - np.sum(d * d, 1) * (np.sum(oc * oc, 1) - r * r)
     return (-b - np.sqrt(disc)) / np.sum(d * d, 1)
+
+
+def test_a_shots_next_frame_takes_the_path_prototypes_over():
+    """The prototypes built again for the path integrator (a container with a sphere) are built once: the
+    next frame of a shot (`Renderer(reuse=)`, the same containers, placements moved) takes them over with
+    the others, and its hits are those of its own cook top level (the ids; the ball's distance to float32)."""
+    first = _scene(np.eye(4), [translate(2.5, 0.0, 0.0), translate(-2.5, 0.0, 0.0)])
+    second = _scene(translate(0.2, 0.0, 0.0), [translate(2.0, 0.0, 0.0), translate(-3.0, 0.0, 0.0)])
+    r1 = Renderer(first)
+    r1.path_scene()
+    own = dict(r1.built.path_prototypes)
+    assert list(own) == [0]                                              # the floor-and-ball container
+    with Renderer(second, reuse=r1) as r2:
+        L = r2.path_lights()
+        assert r2.built.path_prototypes == own                          # the same Embree scenes, not rebuilt
+        o, d = _rays()
+        out = {}
+        for name, handle in (('cook', r2.built.handle), ('path', r2.path_scene())):
+            ids, t = np.zeros((len(o), 4), np.uint32), np.zeros(len(o))
+            _trace(handle, L, o, d, True, ids, t)
+            out[name] = ids, t
+        (cook, tc), (path, tp) = out['cook'], out['path']
+        light = path[:, 0] == L.light_group
+        np.testing.assert_array_equal(path[~light], cook[~light])
+        np.testing.assert_allclose(tp[~light], tc[~light], rtol=1e-6)
+        assert (_on_spheres(r2.built.data, cook) & ~light).sum() > 20
