@@ -26,6 +26,9 @@ Per scene (USD, or course XML compiled in memory with `rtc.cli.load_scene`):
   share of the render; "shading" is the rest (sampling, shading, film);
 * peak RSS (`resource.getrusage`, high-water mark of the process) after each phase;
 * `--scaling`: the same render with 1 and 2 numba threads, interleaved.
+
+`--threads N` sets the render's threads and numba's, so that the replays run on as many threads as the
+render (before, `--threads 1` replayed on every core and halved the ratios).
 """
 from __future__ import annotations
 
@@ -250,6 +253,8 @@ def main(argv=None) -> int:
     ap.add_argument('--no-replay', action='store_true')
     ap.add_argument('--scaling', action='store_true', help='also time 1 vs 2 threads')
     a = ap.parse_args(argv)
+    if a.threads:
+        numba.set_num_threads(a.threads)     # the replays' prange loops too: they run on the render's threads
     print(f'numba threads {a.threads or numba.config.NUMBA_NUM_THREADS}, {a.width}x{a.height}, {a.spp} spp, '
           f'sampler {a.sampler}, max depth {a.max_depth}, {a.rounds} rounds', flush=True)
     for path in a.scenes:

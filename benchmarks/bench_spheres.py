@@ -4,7 +4,8 @@ spheres (`rtc.renderer.host.user_geometry`, the path integrator's): the same ray
     python benchmarks/bench_spheres.py --threads 1
 
 Scenes: one unit sphere; three spheres in a row; a floor quad under three spheres (the glossy scene's
-kind); 10,000 small spheres in a box (a point cloud).  Rays: from a camera 5 units away towards the
+kind); 10,000 small spheres in a box (a point cloud) in one geometry (as many sphere lights are) and as a
+geometry each (as sphere gprims are); 1,000 and 100 of them (radii 3x and 6x) in one geometry.  Rays: from a camera 5 units away towards the
 spheres (hit and miss), random directions.  Reported per scene and query (rtcIntersect1, rtcOccluded1, and
 16-ray packets of rtcIntersect16 / rtcOccluded16): ns a ray of each representation (medians of `--rounds`
 alternating rounds) and their ratio, the hits checked equal.
@@ -34,7 +35,10 @@ def scenes(rng):
     row = np.array([[-2.5, 0, 0, 1.0], [0, 0, 0, 1.0], [2.5, 0, 0, 1.0]])
     return {'one sphere': ([], [row[1:2]]), 'three spheres': ([], [row[k:k + 1] for k in range(3)]),
             'floor and three spheres': ([QUAD], [row[k:k + 1] for k in range(3)]),
-            '10,000 spheres (one geometry)': ([], [cloud])}
+            '10,000 spheres (one geometry)': ([], [cloud]),
+            '10,000 spheres (a geometry each)': ([], [cloud[k:k + 1] for k in range(len(cloud))]),
+            '1,000 spheres (one geometry)': ([], [cloud[:1000] * [1, 1, 1, 3]]),
+            '100 spheres (one geometry)': ([], [cloud[:100] * [1, 1, 1, 6]])}
 
 
 def rays(rng, n):
