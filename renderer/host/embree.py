@@ -87,6 +87,9 @@ RTC_FORMAT_QUATERNION_DECOMPOSITION = 0xB001
 
 RTC_SCENE_FLAG_NONE = 0
 RTC_SCENE_FLAG_ROBUST = 4
+# rtcGetDeviceProperty: 1 where rtcIntersect16 / rtcOccluded16 run Embree's own 16-wide kernels (an AVX-512
+# CPU); 0 where they are emulated (AVX2: two 8-wide halves), VERIFIED on both kinds of host
+RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED = 34
 
 RTC_INVALID_GEOMETRY_ID = 0xFFFFFFFF
 
@@ -104,6 +107,7 @@ def _declare(name, restype, argtypes):
 rtcNewDevice = _declare("rtcNewDevice", _vp, [ctypes.c_char_p])
 rtcReleaseDevice = _declare("rtcReleaseDevice", None, [_vp])
 rtcGetDeviceError = _declare("rtcGetDeviceError", _i32, [_vp])
+rtcGetDeviceProperty = _declare("rtcGetDeviceProperty", ctypes.c_ssize_t, [_vp, _i32])
 rtcSetDeviceErrorFunction = _declare("rtcSetDeviceErrorFunction", None, [_vp, _ERROR_FUNCTION, _vp])
 rtcNewScene = _declare("rtcNewScene", _vp, [_vp])
 rtcReleaseScene = _declare("rtcReleaseScene", None, [_vp])
@@ -255,6 +259,14 @@ class Device:
             errors = [(code, "")]
         if errors:
             raise EmbreeError(f"{what}: " + "; ".join(f"{_ERROR_NAMES.get(c, c)}: {m}" for c, m in errors))
+
+    @property
+    def native_ray16(self) -> bool:
+        """Whether Embree traces 16-ray packets with 16-wide kernels on this CPU (AVX-512).  Where it does
+        not (AVX2), a packet is traced as two 8-wide halves and gains nothing over single rays: the path
+        integrator's shadow rays of 16 in a packet took 1.00-1.05x longer a sample there (`benchmarks/RESULTS.md`,
+        "Shadow rays alone where packets are emulated")."""
+        return bool(rtcGetDeviceProperty(self.handle, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED))
 
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],

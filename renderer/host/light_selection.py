@@ -39,7 +39,8 @@ from .surface_lights import surface_lights, surface_lights_none
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
                                        'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
-                                       'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through'])
+                                       'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through',
+                                       'shadow_packets'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -157,13 +158,15 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
 
 
 def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, light_group: int,
-                data=None) -> tuple:
+                data=None, shadow_packets: bool = True) -> tuple:
     """(PathLights record, (the light shapes' geometry, their ray masks) or None: `shape_geometry`) of a built scene (li_f:
     the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
     report in the path integrator's top level, `build.path_top`;
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
     whether a surface lets rays through (`features.see_through`; without `data`, whether a material
-    could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`)."""
+    could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`);
+    `shadow_packets`: whether the other scenes' shadow rays are queued and traced 16 at a time (where
+    Embree's 16-wide kernels run them, `embree.Device.native_ray16`) or traced one by one."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
@@ -183,7 +186,8 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
                       geom_off=geom_off, prim_light=prim_light, facing=facing, **_surface_fields(desc, surf),
                       direct_base=-1, direct=np.zeros((0, 3), np.int64),
                       see_through=see_through(data) if data is not None else any(
-                          m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials)), \
+                          m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials),
+                      shadow_packets=bool(shadow_packets)), \
         (geometry, masks) if geometry else None
 
 

@@ -97,6 +97,9 @@ class Renderer:
         self.build_seconds = _time.perf_counter() - t0
         self._lights = None
         self._path_top = None
+        # the path integrator's shadow rays in 16-ray packets where Embree runs them 16-wide (AVX-512), else
+        # one by one (set before the first path render to choose otherwise, as the tests do)
+        self.shadow_packets = self.built.device.native_ray16
 
     def path_lights(self):
         """The path integrator's light record (built on its first use: cook renders never build it), and
@@ -104,7 +107,8 @@ class Renderer:
         if self._lights is None:
             d = self.built.data
             group = len(self.built.top.groups)
-            lights, shapes = path_lights(self.desc, d.li_f, self.built.top.bounds(), group, data=d)
+            lights, shapes = path_lights(self.desc, d.li_f, self.built.top.bounds(), group, data=d,
+                                         shadow_packets=self.shadow_packets)
             self._path_top, base, direct = path_top(self.built, self.desc.containers, shapes, group)
             self._lights = lights._replace(direct_base=base, direct=direct)
         return self._lights

@@ -137,7 +137,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     ws = wi
     if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
         ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
-    if not (F_OPACITY and L.see_through):               # nothing to see through: one occlusion query
+    if L.shadow_packets and not (F_OPACITY and L.see_through):   # nothing to see through: queued for a packet
         s = w / pl
         T = vtx.T
         c = (T[0] * fc[0] * Le[0] * s, T[1] * fc[1] * Le[1] * s, T[2] * fc[2] * Le[2] * s)
@@ -381,7 +381,7 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
             rad[j, 0] = c[0]
             rad[j, 1] = c[1]
             rad[j, 2] = c[2]
-        if not (F_OPACITY and L.see_through):             # the deferred shadow rays (`_defer_shadow`)
+        if L.shadow_packets and not (F_OPACITY and L.see_through):   # the deferred shadow rays (`_defer_shadow`)
             q = tr.queue
             _flush_shadows(tr.scene, q)
             for j in range(n):

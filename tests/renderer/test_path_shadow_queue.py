@@ -1,9 +1,10 @@
-"""The path integrator's shadow-ray queue (`kernel/path._defer_shadow`): where no surface is see-through,
-every shadow ray waits with its light sample's contribution and is traced in a 16-ray packet.  A queued
-shadow ray only decides whether a contribution counts, so the image must be the one the same scene gives
-with shadow rays traced one by one (through see-through surfaces, `shadow_transmittance`): checked by
-rendering a scene twice, once as it is and once with a see-through quad that no ray meets, which turns
-the queue off."""
+"""The path integrator's shadow-ray queue (`kernel/path._defer_shadow`): where no surface is see-through
+and Embree traces 16-ray packets with its own 16-wide kernels (`embree.Device.native_ray16`), every shadow
+ray waits with its light sample's contribution and is traced in a 16-ray packet.  A queued shadow ray only
+decides whether a contribution counts, so the image must be the one the same scene gives with shadow rays
+traced one by one: checked by rendering a scene with the queue (forced on, whatever the CPU), once with a
+see-through quad that no ray meets (which turns the queue off: `shadow_transmittance`), and once with the
+queue off as on a CPU whose packets are emulated."""
 import numpy as np
 
 from rtc.renderer import description as D
@@ -26,8 +27,9 @@ def _scene(see_through: bool):
     return scene([D.Container('/', meshes=meshes)], materials, lights, cam, width=48, height=36)
 
 
-def _render(see_through: bool):
+def _render(see_through: bool, shadow_packets: bool = True):
     r = Renderer(_scene(see_through))
+    r.shadow_packets = shadow_packets
     try:
         res = r.render(RenderOptions(width=48, height=36, spp=16, integrator='path', max_depth=4, sampler='sobol',
                                      filter='box'))
@@ -48,3 +50,27 @@ def test_queued_shadow_rays_give_the_image_of_shadow_rays_traced_alone():
     close = np.isclose(queued, alone, rtol=1e-5, atol=1e-6)
     assert close.mean() > 0.999
     assert abs(queued.mean() / alone.mean() - 1.0) < 1e-5
+
+
+def test_shadow_rays_alone_where_packets_are_emulated_give_the_same_image():
+    queued, qs = _render(False)
+    alone, s = _render(False, shadow_packets=False)
+    assert s.rays_shadow_packet == 0 and abs(qs.rays_shadow - s.rays_shadow) <= 2
+    assert qs.rays_camera == s.rays_camera and qs.rays_secondary == s.rays_secondary
+    close = np.isclose(queued, alone, rtol=1e-5, atol=1e-6)
+    assert close.mean() > 0.999
+    assert abs(queued.mean() / alone.mean() - 1.0) < 1e-5
+
+
+def test_the_default_follows_embrees_packet_width():
+    from rtc.renderer.host.embree import Device
+    with Device() as dev:
+        native = dev.native_ray16
+    r = Renderer(_scene(False))
+    try:
+        assert r.shadow_packets == native
+        s = r.render(RenderOptions(width=16, height=12, spp=4, integrator='path', max_depth=2)).stats
+        assert (s.rays_shadow_packet == s.rays_shadow) if native else (s.rays_shadow_packet == 0)
+        assert s.rays_shadow > 0
+    finally:
+        r.close()
