@@ -92,6 +92,14 @@ def vertex_bsdf(S, sp):
                        float(mf[mat, MF_ROUGH]), float(mf[mat, MF_IOR]), sp.front, cool)
 
 
+@nb.njit(**SHADING_INLINE_JIT)
+def queues_shadows(L):
+    """Whether a light sample's shadow ray waits in the queue for a 16-ray packet (`_defer_shadow`): where
+    Embree runs 16-ray packets with 16-wide kernels (`PathLights.shadow_packets`) and no surface is
+    see-through (a see-through surface needs `shadow_transmittance`'s walk through it)."""
+    return L.shadow_packets and not (F_OPACITY and L.see_through)
+
+
 @nb.njit(**STAGE_JIT)
 def next_event(S, L, tr, key, v, vtx, b, strategy):
     """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b): one, and a side
@@ -137,7 +145,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     ws = wi
     if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
         ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
-    if L.shadow_packets and not (F_OPACITY and L.see_through):   # nothing to see through: queued for a packet
+    if queues_shadows(L):
         s = w / pl
         T = vtx.T
         c = (T[0] * fc[0] * Le[0] * s, T[1] * fc[1] * Le[1] * s, T[2] * fc[2] * Le[2] * s)
@@ -381,7 +389,7 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
             rad[j, 0] = c[0]
             rad[j, 1] = c[1]
             rad[j, 2] = c[2]
-        if L.shadow_packets and not (F_OPACITY and L.see_through):   # the deferred shadow rays (`_defer_shadow`)
+        if queues_shadows(L):                             # the deferred shadow rays (`_defer_shadow`)
             q = tr.queue
             _flush_shadows(tr.scene, q)
             for j in range(n):
