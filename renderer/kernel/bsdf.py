@@ -22,6 +22,14 @@ viewer's side); every material model sets the lobes it has and zeroes the others
 
 Lobes are chosen by their estimated albedo at wo; the pdf of a non-delta direction is the mixture
 sum_l P(l) pdf_l(wi), so `sample` returns f cos / pdf of the whole non-delta BSDF.
+
+A path vertex evaluates its BSDF for every light sample and once more for its BSDF sample, always from
+the same wo: `seen_from(b, wo)` computes what depends on wo alone once (the lobe probabilities, Schlick's
+F(cos_o), the Smith terms of wo), and `evaluate_seen`, `sample_seen` take that record.  The microfacet
+terms are computed without normalising the half vector (`_microfacet`): one square root and one
+division for D, G2 and the pdf together, where the textbook form takes four of each (the path
+integrator's shading is bound by the latency of square roots and divisions).  `evaluate(b, wo, wi)` and
+`sample(b, wo, ...)` are the same on a `Bsdf` and one direction.
 """
 import math
 from collections import namedtuple
@@ -36,6 +44,9 @@ from .vecmath import turn
 
 Bsdf = namedtuple('Bsdf', ['kd', 'coupled', 'cool', 'gooch', 'f0', 'f90', 'alpha', 'cc', 'cc_alpha',
                            'ks', 'exp', 'mirror', 'eta'])
+# A Bsdf seen from wo (`seen_from`): b, wo, p the lobe probabilities at wo, fo Schlick's F(cos_o) rgb (the
+# coupled diffuse's), g and gc the `_smith_o` terms of wo for the GGX and the clearcoat lobe.
+Seen = namedtuple('Seen', ['b', 'wo', 'p', 'fo', 'g', 'gc'])
 # lobes (index into the probabilities returned by `lobe_probabilities`)
 L_DIFFUSE, L_GGX, L_CLEARCOAT, L_PHONG, L_MIRROR, L_DIELECTRIC = range(6)
 N_LOBES = 6
@@ -62,33 +73,12 @@ def schlick3(f0, f90, c):
 
 
 @nb.njit(**_JIT)
-def ggx_d(cos_h, alpha):
-    a2 = alpha * alpha
-    x = cos_h * cos_h * (a2 - 1.0) + 1.0
-    return a2 / (math.pi * x * x)
-
-
-@nb.njit(**_JIT)
 def smith_lambda(cos_t, alpha):
     c2 = cos_t * cos_t
     if c2 >= 1.0:
         return 0.0
     t2 = (1.0 - c2) / max(c2, 1e-300)
     return 0.5 * (math.sqrt(1.0 + alpha * alpha * t2) - 1.0)
-
-
-@nb.njit(**_JIT)
-def ggx_pdf(wo, h, alpha):
-    """Solid-angle pdf of the reflected direction about h under visible-normal sampling:
-    G1(wo) D(h) / (4 cos_o)."""
-    return ggx_d(h[2], alpha) / ((1.0 + smith_lambda(wo[2], alpha)) * 4.0 * wo[2])
-
-
-@nb.njit(**_JIT)
-def ggx_spec(wo, wi, h, alpha):
-    """D G2 / (4 cos_o cos_i) (without Fresnel), height-correlated Smith G2."""
-    g2 = 1.0 / (1.0 + smith_lambda(wo[2], alpha) + smith_lambda(wi[2], alpha))
-    return ggx_d(h[2], alpha) * g2 / (4.0 * wo[2] * wi[2])
 
 
 @nb.njit(**_JIT)
@@ -132,17 +122,6 @@ def _reflect(wo, h):
 
 
 @nb.njit(**_JIT)
-def _half(wo, wi):
-    x = wo[0] + wi[0]
-    y = wo[1] + wi[1]
-    z = wo[2] + wi[2]
-    n = math.sqrt(x * x + y * y + z * z)
-    if n <= 0.0:
-        return 0.0, 0.0, 1.0
-    return x / n, y / n, z / n
-
-
-@nb.njit(**_JIT)
 def is_delta(b):
     """True if the BSDF has no lobe but delta ones (next-event estimation is useless)."""
     return (b.kd[0] <= 0.0 and b.kd[1] <= 0.0 and b.kd[2] <= 0.0 and not b.gooch and b.alpha <= 0.0
@@ -150,9 +129,9 @@ def is_delta(b):
 
 
 @nb.njit(**_JIT)
-def lobe_probabilities(b, cos_o):
-    """Probabilities of the six lobes at cos_o, proportional to their estimated albedo."""
-    fs = schlick3(b.f0, b.f90, cos_o) if b.alpha > 0.0 else BLACK
+def lobe_probabilities(b, cos_o, fs):
+    """Probabilities of the six lobes at cos_o, proportional to their estimated albedo; fs = Schlick's
+    F(cos_o) of the GGX lobe (black without one)."""
     fc = b.cc * schlick(CC_F0, 1.0, cos_o)
     if b.gooch:
         a_d = 0.5 * (lum(b.kd) + lum(b.cool))
@@ -173,21 +152,60 @@ def lobe_probabilities(b, cos_o):
 
 
 @nb.njit(**_JIT)
-def evaluate(b, wo, wi):
-    """(f(wo, wi) cos_i rgb, mixture pdf of wi) of the non-delta lobes; wo, wi local unit vectors."""
+def _smith_o(cos_o, alpha):
+    """The terms of wo in `_microfacet`: (1/2 + Lambda(wo), 1 / ((1 + Lambda(wo)) 4 cos_o))."""
+    lam = smith_lambda(cos_o, alpha)
+    return 0.5 + lam, 1.0 / ((1.0 + lam) * 4.0 * cos_o)
+
+
+@nb.njit(**_JIT)
+def seen_from(b, wo):
+    """The `Seen` record of b from wo (local, unit): what every evaluation from wo shares."""
+    c = wo[2]
+    if c <= 0.0:
+        return Seen(b, wo, (0.0, 0.0, 0.0, 0.0, 0.0, 0.0), BLACK, (0.0, 0.0), (0.0, 0.0))
+    fo = schlick3(b.f0, b.f90, c) if (b.alpha > 0.0 or b.coupled) else BLACK
+    p = lobe_probabilities(b, c, fo if b.alpha > 0.0 else BLACK)
+    g = _smith_o(c, b.alpha) if F_MODELS & B_GGX and b.alpha > 0.0 else (0.0, 0.0)
+    gc = _smith_o(c, b.cc_alpha) if F_CLEARCOAT and b.cc > 0.0 else (0.0, 0.0)
+    return Seen(b, wo, p, fo, g, gc)
+
+
+@nb.njit(**_JIT)
+def _microfacet(wo, wi, hxy2, hz, alpha, g):
+    """(D G2 / (4 cos_o cos_i), the visible-normal pdf of wi: G1(wo) D / (4 cos_o)) of a GGX lobe, g its
+    `_smith_o` terms; hxy2, hz the squared tangential length and the normal component of the unnormalised
+    half vector wo + wi (cos_i > 0, cos_o > 0).  With |h|^2 = hxy2 + hz^2 and m = hxy2 + alpha^2 hz^2,
+    D = alpha^2 |h|^4 / (pi m^2) (no normalisation: m has no cancellation, and m >= alpha^2 hz^2 > 0), and
+    cos_i (1 + Lambda(wo) + Lambda(wi)) = s = cos_i g[0] + sqrt(cos_i^2 + alpha^2 (1 - cos_i^2)) / 2, so
+    G2 / cos_i = 1 / s: one square root and one division for both values."""
+    a2 = alpha * alpha
+    ci = wi[2]
+    n2 = hxy2 + hz * hz
+    m = hxy2 + a2 * hz * hz
+    q = 4.0 * wo[2] * (ci * g[0] + 0.5 * math.sqrt(ci * ci + a2 * (1.0 - ci * ci)))
+    spec = a2 * n2 * n2 / (math.pi * m * m * q)
+    return spec, spec * q * g[1]
+
+
+@nb.njit(**_JIT)
+def evaluate_seen(sb, wi):
+    """(f(wo, wi) cos_i rgb, mixture pdf of wi) of the non-delta lobes of sb = `seen_from(b, wo)`; wi a
+    local unit vector."""
+    b, wo, p = sb.b, sb.wo, sb.p
     if wo[2] <= 0.0 or wi[2] <= 0.0:
         return BLACK, 0.0
-    p = lobe_probabilities(b, wo[2])
-    h = (0.0, 0.0, 1.0)
-    vh = 1.0
-    if (F_MODELS & B_GGX and b.alpha > 0.0) or (F_CLEARCOAT and b.cc > 0.0) or (F_MODELS & B_PHONG and b.exp >= 0.0):
-        h = _half(wo, wi)                      # the half vector only where a microfacet lobe needs it
-        vh = wo[0] * h[0] + wo[1] * h[1] + wo[2] * h[2]
     ci = wi[2]
     fr = 0.0
     fg = 0.0
     fb = 0.0
     pdf = 0.0
+    micro = (F_MODELS & B_GGX and b.alpha > 0.0) or (F_CLEARCOAT and b.cc > 0.0) or (F_MODELS & B_PHONG and b.exp >= 0.0)
+    hx, hy, hz, hxy2, vh = 0.0, 0.0, 1.0, 0.0, 1.0
+    if micro:                                   # the half vector only where a microfacet lobe needs it
+        hx, hy, hz = wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]
+        hxy2 = hx * hx + hy * hy
+        vh = 0.5 * math.sqrt(hxy2 + hz * hz)   # wo.h = |wo + wi| / 2 for unit wo, wi
     if p[L_DIFFUSE] > 0.0:
         pdf += p[L_DIFFUSE] * ci / math.pi
         if F_MODELS & B_COOL_TO_WARM and b.gooch:
@@ -196,7 +214,7 @@ def evaluate(b, wo, wi):
             fg = (b.cool[1] + t * (b.kd[1] - b.cool[1])) / math.pi
             fb = (b.cool[2] + t * (b.kd[2] - b.cool[2])) / math.pi
         elif F_MODELS & B_PREVIEW_SURFACE and b.coupled:
-            fo = schlick3(b.f0, b.f90, wo[2])
+            fo = sb.fo
             fi = schlick3(b.f0, b.f90, ci)
             fr = b.kd[0] * (1.0 - fo[0]) * (1.0 - fi[0]) / math.pi
             fg = b.kd[1] * (1.0 - fo[1]) * (1.0 - fi[1]) / math.pi
@@ -207,26 +225,34 @@ def evaluate(b, wo, wi):
             fb = b.kd[2] / math.pi
     if F_MODELS & B_GGX and b.alpha > 0.0:
         F = schlick3(b.f0, b.f90, vh)
-        s = ggx_spec(wo, wi, h, b.alpha)
+        s, ps = _microfacet(wo, wi, hxy2, hz, b.alpha, sb.g)
         fr += F[0] * s
         fg += F[1] * s
         fb += F[2] * s
-        pdf += p[L_GGX] * ggx_pdf(wo, h, b.alpha)
+        pdf += p[L_GGX] * ps
     if F_CLEARCOAT and b.cc > 0.0:
         layer = (1.0 - b.cc * schlick(CC_F0, 1.0, wo[2])) * (1.0 - b.cc * schlick(CC_F0, 1.0, ci))
-        c = b.cc * schlick(CC_F0, 1.0, vh) * ggx_spec(wo, wi, h, b.cc_alpha)
+        s, ps = _microfacet(wo, wi, hxy2, hz, b.cc_alpha, sb.gc)
+        c = b.cc * schlick(CC_F0, 1.0, vh) * s
         fr = fr * layer + c
         fg = fg * layer + c
         fb = fb * layer + c
-        pdf += p[L_CLEARCOAT] * ggx_pdf(wo, h, b.cc_alpha)
-    if F_MODELS & B_PHONG and b.exp >= 0.0 and h[2] > 0.0:
-        dh = (b.exp + 1.0) / (2.0 * math.pi) * h[2] ** b.exp
+        pdf += p[L_CLEARCOAT] * ps
+    if F_MODELS & B_PHONG and b.exp >= 0.0:
+        cos_h = hz / (2.0 * vh)
+        dh = (b.exp + 1.0) / (2.0 * math.pi) * cos_h ** b.exp
         s = dh / (4.0 * vh * max(ci, wo[2]))
         fr += b.ks[0] * s
         fg += b.ks[1] * s
         fb += b.ks[2] * s
         pdf += p[L_PHONG] * dh / (4.0 * vh)
     return (fr * ci, fg * ci, fb * ci), pdf
+
+
+@nb.njit(**_JIT)
+def evaluate(b, wo, wi):
+    """(f(wo, wi) cos_i rgb, mixture pdf of wi) of the non-delta lobes; wo, wi local unit vectors."""
+    return evaluate_seen(seen_from(b, wo), wi)
 
 
 @nb.njit(**_JIT)
@@ -253,13 +279,14 @@ def _pick(p, u):
 
 
 @nb.njit(**_JIT)
-def sample(b, wo, ul, u1, u2):
-    """Sample wi: (wi, weight rgb, pdf, delta).  weight = f cos / pdf for the non-delta lobes (pdf > 0),
-    the lobe's weight / its probability for a delta lobe (delta True, pdf 0); weight 0 = absorbed."""
+def sample_seen(sb, ul, u1, u2):
+    """Sample wi from sb = `seen_from(b, wo)`: (wi, weight rgb, pdf, delta).  weight = f cos / pdf for the
+    non-delta lobes (pdf > 0), the lobe's weight / its probability for a delta lobe (delta True, pdf 0);
+    weight 0 = absorbed."""
+    b, wo, p = sb.b, sb.wo, sb.p
     dead = ((0.0, 0.0, 1.0), BLACK, 0.0, False)
     if wo[2] <= 0.0:
         return dead
-    p = lobe_probabilities(b, wo[2])
     k, ur = _pick(p, ul)
     if k < 0:
         return dead
@@ -286,10 +313,17 @@ def sample(b, wo, ul, u1, u2):
         return dead
     if wi[2] <= 0.0:
         return dead
-    f, pdf = evaluate(b, wo, wi)
+    f, pdf = evaluate_seen(sb, wi)
     if not pdf > 0.0:
         return dead
-    return wi, (f[0] / pdf, f[1] / pdf, f[2] / pdf), pdf, False
+    r = 1.0 / pdf
+    return wi, (f[0] * r, f[1] * r, f[2] * r), pdf, False
+
+
+@nb.njit(**_JIT)
+def sample(b, wo, ul, u1, u2):
+    """`sample_seen` of b seen from wo."""
+    return sample_seen(seen_from(b, wo), ul, u1, u2)
 
 
 @nb.njit(**_JIT)

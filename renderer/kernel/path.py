@@ -39,7 +39,7 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
-from .bsdf import BLACK, course_bsdf, evaluate, is_delta, preview_bsdf, sample
+from .bsdf import BLACK, course_bsdf, evaluate_seen, is_delta, preview_bsdf, sample_seen, seen_from
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
@@ -102,7 +102,8 @@ def queues_shadows(L):
 
 @nb.njit(**STAGE_JIT)
 def next_event(S, L, tr, key, v, vtx, b, strategy):
-    """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b): one, and a side
+    """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b seen from the
+    vertex's wo: `bsdf.seen_from`): one, and a side
     sample or two where the light tree splits (`light_tree.choose_lights`; each of another light, all
     from the same light-point sample), each MIS-weighted against BSDF sampling; not yet multiplied by
     the path throughput."""
@@ -136,7 +137,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
         wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
-    fc, pb = evaluate(b, vtx.wo, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
+    fc, pb = evaluate_seen(b, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
     if fc[0] == 0.0 and fc[1] == 0.0 and fc[2] == 0.0:
         return BLACK
     pl = pk * pdf
@@ -323,11 +324,12 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         wo = (-d[0], -d[1], -d[2])
         wl = (dot(wo, tt), dot(wo, bb), dot(wo, ns))
         po = _origin(p, ng, osc)
+        sb = seen_from(b, wl)
         if strategy != BSDF_ONLY and n_lights > 0 and not is_delta(b):
             Lo = _add(Lo, T, next_event(S, L, tr, key, v, Vertex(p, ng, ns, tt, bb, wl, po, time, T, path.lane),
-                                                     b, strategy))
+                                                     sb, strategy))
         u1, u2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_BSDF))
-        il, w, pdf, delta = sample(b, wl, ul, u1, u2)
+        il, w, pdf, delta = sample_seen(sb, ul, u1, u2)
         if w[0] == 0.0 and w[1] == 0.0 and w[2] == 0.0:
             break
         wi = to_world(il, tt, bb, ns)
