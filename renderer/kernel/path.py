@@ -6,11 +6,12 @@ crossed, of the surface it hit - emissive surfaces are lights too, `surface_ligh
 if it escaped: MIS-weighted against the light sample that could have found the same light), then
 samples one light chosen from the light tree (`light_tree.choose_lights`: by power, distance and
 orientation; one or two more where one light outshines the rest) towards which it casts a shadow ray,
-then samples its BSDF (`bsdf.sample`) for the next ray.  Delta lights (point, distant without angle) are found by next-event estimation alone,
-delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D counts bounces as pbrt does:
-D = 0 is emission only, D = 1 direct light only.  After RR_DEPTH bounces, Russian roulette ends a
-path with probability 1 - min(1, max throughput) (throughput without the 1/eta^2 of refraction) and
-reweights the survivors: unbiased.  No value is clamped.
+then samples its BSDF for the next ray (`bsdf.sample_seen`, from the vertex's `bsdf.seen_from` record,
+which its light samples evaluate too).  Delta lights (point, distant without angle) are found by
+next-event estimation alone, delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D
+counts bounces as pbrt does: D = 0 is emission only, D = 1 direct light only.  After RR_DEPTH bounces,
+Russian roulette ends a path with probability 1 - min(1, max throughput) (throughput without the
+1/eta^2 of refraction) and reweights the survivors: unbiased.  No value is clamped.
 
 Strategies (`STRATEGIES`, for tests and benchmarks): 'mis' (the default), 'nee' (light sampling
 alone for the light shapes and skies, BSDF sampling still continues paths and finds delta-lobe
