@@ -201,8 +201,8 @@ def evaluate_seen(sb, wi):
     fb = 0.0
     pdf = 0.0
     micro = (F_MODELS & B_GGX and b.alpha > 0.0) or (F_CLEARCOAT and b.cc > 0.0) or (F_MODELS & B_PHONG and b.exp >= 0.0)
-    hx, hy, hz, hxy2, vh = 0.0, 0.0, 1.0, 0.0, 1.0
-    if micro:                                   # the half vector only where a microfacet lobe needs it
+    hz, hxy2, vh = 1.0, 0.0, 1.0
+    if micro:                                   # the half vector wo + wi only where a microfacet lobe needs it
         hx, hy, hz = wo[0] + wi[0], wo[1] + wi[1], wo[2] + wi[2]
         hxy2 = hx * hx + hy * hy
         vh = 0.5 * math.sqrt(hxy2 + hz * hz)   # wo.h = |wo + wi| / 2 for unit wo, wi
