@@ -26,7 +26,7 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 
-KERNELS = ("trace_rays", "trace_rays16", "occlude_rays", "occlude_rays16")
+KERNELS = ("trace_rays", "trace_packets", "occlude_rays", "occlude_packets")
 
 
 def uv_sphere(n: int):

@@ -75,12 +75,14 @@ def main(argv=None) -> int:
         rtc = {}
         for kind, rk in rays.items():
             for packets in (False, True):
-                BR.replay(h, kind, tuple(x[:64] for x in rk), packets)
-                secs = statistics.median(BR.replay(h, kind, rk, packets) for _ in range(a.rounds))
+                BR.replay(h, kind, tuple(x[:64] for x in rk), packets, width=r.packet_width)
+                secs = statistics.median(BR.replay(h, kind, rk, packets, width=r.packet_width)
+                                         for _ in range(a.rounds))
                 rtc[kind, packets] = len(rk[0]) / secs / 1e6
             rtc[kind, 'hits'] = _rtc_hits(h, kind, rk)
         mi = mitsuba_rates(case, rays, a.width, a.height, a.rounds, a.threads)
-        print(f'== {case} ({a.threads} thread(s), {a.width}x{a.height}, 4 spp of rays)')
+        print(f'== {case} ({a.threads} thread(s), {a.width}x{a.height}, 4 spp of rays; rtc packets of 16 traced '
+              f'{r.packet_width} at a time)')
         for kind, rk in rays.items():
             print(f'  {kind:10s} n={len(rk[0]):8d}  rtc {rtc[kind, False]:6.1f} single / {rtc[kind, True]:6.1f} '
                   f'packets  Mitsuba {mi[kind][0]:6.1f} Mrays/s   hits rtc {rtc[kind, "hits"]} Mitsuba {mi[kind][1]}')

@@ -37,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_render as BR                                          # noqa: E402
 from ab_render import load                                         # noqa: E402
 
-from benchmarks.embree_loops import trace_rays, trace_rays16, trace_rays16_coherent  # noqa: E402
+from benchmarks.embree_loops import trace_packets, trace_packets_coherent, trace_rays  # noqa: E402
 from rtc.renderer.host.embree import InstanceGroup                 # noqa: E402
 from rtc.renderer.host.render import RenderOptions, Renderer      # noqa: E402
 
@@ -83,27 +83,30 @@ def sorted_in_groups(rays, group: int):
     return tuple(np.ascontiguousarray(x[order]) for x in rays)
 
 
-def _trace(handle, rays, mode: str) -> float:
-    """Seconds to trace closest hits of `rays`: mode 'single', 'packets' or 'coherent' (packets)."""
+def _trace(handle, rays, mode: str, width: int) -> float:
+    """Seconds to trace closest hits of `rays`: mode 'single', 'packets' or 'coherent' (packets of 16
+    traced `width` at a time)."""
     o, d, tn, tf, tm = rays
     n = len(o)
     t_out, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
     t0 = time.perf_counter()
-    trace = {'single': trace_rays, 'packets': trace_rays16, 'coherent': trace_rays16_coherent}[mode]
-    trace(handle, o, d, tn, tf, tm, t_out, ids)
+    if mode == 'single':
+        trace_rays(handle, o, d, tn, tf, tm, t_out, ids)
+    else:
+        (trace_packets if mode == 'packets' else trace_packets_coherent)(handle, o, d, tn, tf, tm, t_out, ids, width)
     return time.perf_counter() - t0
 
 
-def wavefront_order(handle, rays, group: int, rounds: int) -> dict:
+def wavefront_order(handle, rays, group: int, rounds: int, width: int = 16) -> dict:
     """{(order, mode): ns per ray} of the BSDF rays against the top level `handle`, alternating."""
     orders = {'recorded': rays, f'sorted in {group}s': sorted_in_groups(rays, group)}
     runs = [(name, mode) for name in orders for mode in ('single', 'packets', 'coherent')]
     for name, mode in runs:
-        _trace(handle, tuple(x[:64] for x in orders[name]), mode)
+        _trace(handle, tuple(x[:64] for x in orders[name]), mode, width)
     times = {run: [] for run in runs}
     for _ in range(rounds):
         for name, mode in runs:
-            times[name, mode].append(_trace(handle, orders[name], mode))
+            times[name, mode].append(_trace(handle, orders[name], mode, width))
     return {k: statistics.median(v) / len(rays[0]) * 1e9 for k, v in times.items()}
 
 
@@ -119,7 +122,8 @@ def main(argv=None) -> int:
     ap.add_argument('--group', type=int, default=1024, help='BSDF rays reordered within groups of this many')
     a = ap.parse_args(argv)
     numba.set_num_threads(a.threads)
-    print(f'ns per ray, median of {a.rounds} rounds, {a.threads} thread(s); single / 16-ray packets')
+    print(f'ns per ray, median of {a.rounds} rounds, {a.threads} thread(s); single / packets of 16 (traced as '
+          f'Embree runs them here: `Device.packet_width`)')
     for path in a.scenes:
         r = Renderer(load(path))
         o = RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler='sobol', filter='box',
@@ -131,16 +135,16 @@ def main(argv=None) -> int:
         for kind, rk in rays.items():
             runs = [(name, h, packets) for name, h in tops.items() for packets in (False, True)]
             for _, h, packets in runs:
-                BR.replay(h, kind, tuple(x[:64] for x in rk), packets)
+                BR.replay(h, kind, tuple(x[:64] for x in rk), packets, width=r.packet_width)
             times = {run[0::2]: [] for run in runs}
             for _ in range(a.rounds):                          # alternating: the machine is shared and noisy
                 for name, h, packets in runs:
-                    times[name, packets].append(BR.replay(h, kind, rk, packets))
+                    times[name, packets].append(BR.replay(h, kind, rk, packets, width=r.packet_width))
             ns = {k: statistics.median(v) / len(rk[0]) * 1e9 for k, v in times.items()}
             print(f'  {kind:10s} n={len(rk[0]):8d}  ' + '  '.join(
                 f'{name} {ns[name, False]:5.1f} / {ns[name, True]:5.1f}' for name in tops))
         if 'secondary' in rays:
-            ns = wavefront_order(tops['scene'], rays['secondary'], a.group, a.rounds)
+            ns = wavefront_order(tops['scene'], rays['secondary'], a.group, a.rounds, r.packet_width)
             print('  BSDF rays against the scene, single / packets / coherent packets: ' + '  '.join(
                 f'{name} {ns[name, "single"]:5.1f} / {ns[name, "packets"]:5.1f} / {ns[name, "coherent"]:5.1f}'
                 for name in dict.fromkeys(k[0] for k in ns)))

@@ -13,9 +13,9 @@ Per scene (USD, or course XML compiled in memory with `rtc.cli.load_scene`):
 * the **bare-Embree replay**: the integrator's recording mode stores every ray of `--record-spp`
   samples per pixel, traced as one pass as in the passes of a long render (origin, direction, tnear,
   tfar, time, kind: camera, first-hit shadow, deeper shadow, secondary); they are replayed in the same
-  process with `embree_loops.trace_rays` / `occlude_rays` (single rays) and `trace_rays16` /
-  `occlude_rays16` (16-ray packets in recorded order, i.e. the renderer's own packets for camera and
-  first-hit shadow rays).  The bare time of the full render is sum_k N_k / rate_k over the kinds k,
+  process with `embree_loops.trace_rays` / `occlude_rays` (single rays) and `trace_packets` /
+  `occlude_packets` (packets of 16 in recorded order, traced 16 or 8 at a time as the renderer traces
+  them, `Renderer.packet_width`: the renderer's own packets for camera and first-hit shadow rays).  The bare time of the full render is sum_k N_k / rate_k over the kinds k,
   and **ratio = bare time / render time** (1.0 = the renderer costs nothing but Embree), against
   three replays: *single* (every ray alone, `rtcIntersect1`/`rtcOccluded1`: the plain bare loop),
   *as traced* (the kinds the renderer traces in packets - camera and first-hit shadow rays - as
@@ -47,8 +47,8 @@ import numpy as np
 
 from rtc.renderer.host import film as film_mod  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))   # the repository root: numba caches the loops under
-from benchmarks.embree_loops import (occlude_rays, occlude_rays16, ray_masks, trace_rays,  # noqa: E402  # the tests' name
-                                     trace_rays16, trace_rays_masked)
+from benchmarks.embree_loops import (occlude_packets, occlude_rays, ray_masks, trace_packets,  # noqa: E402
+                                     trace_rays, trace_rays_masked)
 from rtc.renderer.host.render import RenderOptions, Renderer  # noqa: E402
 from rtc.renderer.kernel.integrator import (RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,  # noqa: E402
                                             N_COUNTERS)
@@ -94,24 +94,30 @@ def recorded_rays(r: Renderer, opts: RenderOptions, spp: int, cap: int) -> dict:
     return out
 
 
-def replay(handle: int, kind: str, rays, packets: bool, path: bool = True, masks=None) -> float:
+def replay(handle: int, kind: str, rays, packets: bool, path: bool = True, masks=None, width: int = 16) -> float:
     """Seconds to trace `rays` on bare Embree (closest hit for camera/secondary, occlusion for shadow);
     path: the path integrator's rays, whose shadow rays carry its ray mask (`trace.MASK_SURFACES`: the
     light shapes in its top level occlude nothing, and its traversal skips them), as the renderer traces
     them; masks: the camera and secondary rays' masks (`embree_loops.ray_masks`: the one-sided light
-    shapes a ray cannot see the emitting side of), None: every geometry."""
+    shapes a ray cannot see the emitting side of), None: every geometry; width: how many rays of a packet
+    of 16 one query takes (`Renderer.packet_width`)."""
     o, d, tn, tf, tm = rays
     n = len(o)
     if n == 0:
         return 0.0
     t0 = time.perf_counter()
     if kind.startswith('shadow'):
-        (occlude_rays16 if packets else occlude_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path)
+        if packets:
+            occlude_packets(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path, width)
+        else:
+            occlude_rays(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path)
     elif masks is not None:
-        trace_rays_masked(handle, rays, masks, np.empty(n, np.float32), np.empty((n, 4), np.uint32), packets)
+        trace_rays_masked(handle, rays, masks, np.empty(n, np.float32), np.empty((n, 4), np.uint32),
+                          width if packets else 0)
+    elif packets:
+        trace_packets(handle, o, d, tn, tf, tm, np.empty(n, np.float32), np.empty((n, 4), np.uint32), width)
     else:
-        (trace_rays16 if packets else trace_rays)(handle, o, d, tn, tf, tm, np.empty(n, np.float32),
-                                                  np.empty((n, 4), np.uint32))
+        trace_rays(handle, o, d, tn, tf, tm, np.empty(n, np.float32), np.empty((n, 4), np.uint32))
     return time.perf_counter() - t0
 
 
@@ -125,12 +131,12 @@ def path_masks(r: Renderer, rays: dict) -> dict:
     return masks
 
 
-def warm_replays(handle: int, rays: dict, is_path: bool, masks: dict) -> None:
+def warm_replays(handle: int, rays: dict, is_path: bool, masks: dict, width: int = 16) -> None:
     """Load or compile the replay kernels (a few rays of each kind, single and in packets)."""
     for packets in (False, True):
         for kind, rk in rays.items():
             m = masks.get(kind)
-            replay(handle, kind, tuple(x[:64] for x in rk), packets, is_path, None if m is None else m[:64])
+            replay(handle, kind, tuple(x[:64] for x in rk), packets, is_path, None if m is None else m[:64], width)
 
 
 def bench_scene(path: str, a) -> dict:
@@ -156,7 +162,7 @@ def bench_scene(path: str, a) -> dict:
     handle = r.path_scene() if is_path else r.built.handle             # what the renderer traces
     masks = path_masks(r, rays) if rays is not None and is_path else {}
     if rays is not None:
-        warm_replays(handle, rays, is_path, masks)
+        warm_replays(handle, rays, is_path, masks, r.packet_width)
     render_s, first_s, res = [], [], None
     ratios = {'single': [], 'traced': [], 'packets': []}
     traced_s = []
@@ -175,7 +181,7 @@ def bench_scene(path: str, a) -> dict:
             for kind, rk in rays.items():
                 if len(rk[0]):
                     rate[kind, packets] = len(rk[0]) / max(replay(handle, kind, rk, packets, is_path,
-                                                                  masks.get(kind)), 1e-12)
+                                                                  masks.get(kind), r.packet_width), 1e-12)
                     rates[kind, packets].append(rate[kind, packets])
         bare = {name: sum(n_of[k] / rate[k, p(k)] for k in KINDS if (k, False) in rate)
                 for name, p in (('single', lambda k: False), ('traced', lambda k: k in PACKETED),

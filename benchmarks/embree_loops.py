@@ -13,9 +13,9 @@ import numpy as np
 from rtc.renderer.kernel.jit import INLINE_JIT, JIT
 from rtc.renderer.kernel.light_sampling import shape_mask
 from rtc.renderer.kernel.trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET,
-                                       PRIM_ID, TFAR, intersect1, intersect1_masked, intersect16, intersect16_coherent,
-                                       new_packet16, new_ray_buffer, occluded1, occluded1_surfaces, occluded16,
-                                       set_ray16)
+                                       PRIM_ID, TFAR, intersect1, intersect1_masked, intersect_packet,
+                                       intersect_packet_coherent, new_packet, new_ray_buffer, occluded1,
+                                       occluded1_surfaces, occluded_packet, set_packet_ray, slot)
 
 # rays per work item, and the prime stride that scatters work items over threads (numba hands each
 # thread a contiguous block of a prange; images are not uniform)
@@ -42,12 +42,12 @@ def trace_rays(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
 
 @numba.njit(**JIT, parallel=True)
 def trace_rays_masked(scene, rays, masks, out_t, out_ids, packets):
-    """``trace_rays`` (``trace_rays16`` if `packets`) of rays = (origins, dirs, tnear, tfar, time), ray r
-    with ray mask masks[r] (uint32 (n,): `ray_masks`)."""
+    """``trace_rays`` (``trace_packets`` traced `packets` = 16 or 8 at a time if `packets`, else single rays)
+    of rays = (origins, dirs, tnear, tfar, time), ray r with ray mask masks[r] (uint32 (n,): `ray_masks`)."""
     n_items = (rays[0].shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
         if packets:
-            _trace_item16(scene, _work_item(i, n_items), rays, out_t, out_ids, False, masks)
+            _trace_item16(scene, _work_item(i, n_items), rays, (out_t, out_ids), False, masks, packets)
         else:
             _trace_item1(scene, _work_item(i, n_items), rays, out_t, out_ids, masks)
 
@@ -103,76 +103,80 @@ def _load_packet(packet, first, end, origins, dirs, tnear, tfar, time):
     packet.valid[:] = 0
     for j in range(lanes):
         r = first + j
-        set_ray16(packet, j, (origins[r, 0], origins[r, 1], origins[r, 2]), (dirs[r, 0], dirs[r, 1], dirs[r, 2]),
-                  tnear[r], tfar[r], time[r])
+        set_packet_ray(packet, j, (origins[r, 0], origins[r, 1], origins[r, 2]),
+                       (dirs[r, 0], dirs[r, 1], dirs[r, 2]), tnear[r], tfar[r], time[r])
     return lanes
 
 
 @numba.njit(**JIT)
-def _trace_item16(scene, item, rays, out_t, out_ids, coherent, masks):
-    """Work item `item` of `trace_rays16` (a function of its own: numba's parfor analysis of an
-    inlined packet record in the prange body gives wrong results)."""
+def _trace_item16(scene, item, rays, out, coherent, masks, width):
+    """Work item `item` of `trace_packets` (a function of its own: numba's parfor analysis of an
+    inlined packet record in the prange body gives wrong results); out = (out_t, out_ids)."""
     origins, dirs, tnear, tfar, time = rays
+    out_t, out_ids = out
     n = origins.shape[0]
-    packet = new_packet16()
+    packet = new_packet(width)
     f, u = packet.f, packet.u
     end = min(n, (item + 1) * CHUNK)
     for first in range(item * CHUNK, end, PACKET):
         lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
         if masks is not None:
             for j in range(lanes):
-                u[MASK * PACKET + j] = masks[first + j]
+                u[slot(packet, MASK, j)] = masks[first + j]
         if coherent:
-            intersect16_coherent(scene, packet)
+            intersect_packet_coherent(scene, packet)
         else:
-            intersect16(scene, packet)
+            intersect_packet(scene, packet)
         for j in range(lanes):
             r = first + j
-            out_t[r] = f[TFAR * PACKET + j]
-            geom = u[GEOM_ID * PACKET + j]
-            out_ids[r, 0] = u[PRIM_ID * PACKET + j] if geom != INVALID else INVALID
+            out_t[r] = f[slot(packet, TFAR, j)]
+            geom = u[slot(packet, GEOM_ID, j)]
+            out_ids[r, 0] = u[slot(packet, PRIM_ID, j)] if geom != INVALID else INVALID
             out_ids[r, 1] = geom
-            out_ids[r, 2] = u[INST_ID * PACKET + j]
-            out_ids[r, 3] = u[INST_PRIM_ID * PACKET + j]
+            out_ids[r, 2] = u[slot(packet, INST_ID, j)]
+            out_ids[r, 3] = u[slot(packet, INST_PRIM_ID, j)]
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_rays16(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
-    """``trace_rays`` with rtcIntersect16 on consecutive groups of 16 rays (order rays coherently,
-    e.g. 4x4 pixel tiles, for packets to pay off)."""
+def trace_packets(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, width=16):
+    """``trace_rays`` in packets of 16 consecutive rays (`trace.Packet`, traced `width` = 16 or 8 at a time;
+    order rays coherently, e.g. 4x4 pixel tiles, for packets to pay off)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, False, None)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), (out_t, out_ids), False,
+                      None, width)
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_rays16_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_ids):
-    """``trace_rays16`` in Embree's coherent mode (RTC_RAY_QUERY_FLAG_COHERENT, `trace.intersect16_coherent`)."""
+def trace_packets_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, width=16):
+    """``trace_packets`` in Embree's coherent mode (RTC_RAY_QUERY_FLAG_COHERENT,
+    `trace.intersect_packet_coherent`)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_t, out_ids, True, None)
+        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), (out_t, out_ids), True,
+                      None, width)
 
 
 @numba.njit(**JIT)
-def _occlude_item16(scene, item, rays, out_occluded, mask):
-    """Work item `item` of `occlude_rays16` (ray mask `mask`)."""
+def _occlude_item16(scene, item, rays, out_occluded, mask, width):
+    """Work item `item` of `occlude_packets` (ray mask `mask`)."""
     origins, dirs, tnear, tfar, time = rays
     n = origins.shape[0]
-    packet = new_packet16()
+    packet = new_packet(width)
     end = min(n, (item + 1) * CHUNK)
     for first in range(item * CHUNK, end, PACKET):
         lanes = _load_packet(packet, first, end, origins, dirs, tnear, tfar, time)
         for j in range(lanes):
-            packet.u[MASK * PACKET + j] = mask
-        occluded16(scene, packet)
+            packet.u[slot(packet, MASK, j)] = mask
+        occluded_packet(scene, packet)
         for j in range(lanes):
-            out_occluded[first + j] = packet.f[TFAR * PACKET + j] == -np.inf
+            out_occluded[first + j] = packet.f[slot(packet, TFAR, j)] == -np.inf
 
 
 @numba.njit(**JIT, parallel=True)
-def occlude_rays16(scene, origins, dirs, tnear, tfar, time, out_occluded, surfaces=False):
-    """``occlude_rays`` with rtcOccluded16 on consecutive groups of 16 rays."""
+def occlude_packets(scene, origins, dirs, tnear, tfar, time, out_occluded, surfaces=False, width=16):
+    """``occlude_rays`` in packets of 16 consecutive rays (traced `width` = 16 or 8 at a time)."""
     n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
     mask = MASK_SURFACES if surfaces else MASK_ALL
     for i in numba.prange(n_items):
-        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded, mask)
+        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded, mask, width)

@@ -87,8 +87,9 @@ RTC_FORMAT_QUATERNION_DECOMPOSITION = 0xB001
 
 RTC_SCENE_FLAG_NONE = 0
 RTC_SCENE_FLAG_ROBUST = 4
-# rtcGetDeviceProperty: 1 where rtcIntersect16 / rtcOccluded16 run Embree's own 16-wide kernels (an AVX-512
-# CPU); 0 where they are emulated (AVX2: two 8-wide halves), VERIFIED on both kinds of host
+# rtcGetDeviceProperty: 1 where rtcIntersect16 / rtcOccluded16 (8: rtcIntersect8 / rtcOccluded8) run Embree's
+# own 16-wide (8-wide) kernels: 16 on AVX-512 CPUs, 8 on AVX2 ones (where 16 is 0), VERIFIED on both kinds
+RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED = 33
 RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED = 34
 
 RTC_INVALID_GEOMETRY_ID = 0xFFFFFFFF
@@ -262,11 +263,25 @@ class Device:
 
     @property
     def native_ray16(self) -> bool:
-        """Whether Embree traces 16-ray packets with 16-wide kernels on this CPU (AVX-512).  Where it does
-        not (AVX2), a packet is traced as two 8-wide halves and gains nothing over single rays: the path
-        integrator's shadow rays of 16 in a packet took 1.00-1.05x longer a sample there (`benchmarks/RESULTS.md`,
-        "Shadow rays alone where packets are emulated")."""
+        """Whether Embree traces 16-ray packets with 16-wide kernels on this CPU (AVX-512)."""
         return bool(rtcGetDeviceProperty(self.handle, RTC_DEVICE_PROPERTY_NATIVE_RAY16_SUPPORTED))
+
+    @property
+    def native_ray8(self) -> bool:
+        """Whether Embree traces 8-ray packets with 8-wide kernels on this CPU (AVX2 and AVX-512)."""
+        return bool(rtcGetDeviceProperty(self.handle, RTC_DEVICE_PROPERTY_NATIVE_RAY8_SUPPORTED))
+
+    @property
+    def packet_width(self) -> int:
+        """How many rays of a 16-ray packet (`kernel/trace.Packet`) one Embree query takes: 16 where its
+        16-wide kernels run them, else 8 where its 8-wide ones do (AVX2: there a 16-ray query is emulated,
+        slower than single rays, and two 8-ray queries 1.7-2.3x faster: `benchmarks/RESULTS.md`), else 16."""
+        return 8 if self.native_ray8 and not self.native_ray16 else 16
+
+    @property
+    def native_packets(self) -> bool:
+        """Whether Embree runs this CPU's packets (`packet_width`) with its own kernels, not emulated."""
+        return self.native_ray16 or self.native_ray8
 
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],

@@ -165,8 +165,8 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
     whether a surface lets rays through (`features.see_through`; without `data`, whether a material
     could), i.e. whether shadow rays must be traced one by one (`kernel/path._defer_shadow`);
-    `shadow_packets`: whether the other scenes' shadow rays are queued and traced 16 at a time (where
-    Embree's 16-wide kernels run them, `embree.Device.native_ray16`) or traced one by one."""
+    `shadow_packets`: whether the other scenes' shadow rays are queued and traced in packets (where
+    Embree's own 16- or 8-wide kernels run them, `embree.Device.native_packets`) or traced one by one."""
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0

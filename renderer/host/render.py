@@ -89,7 +89,7 @@ class Renderer:
         t0 = _time.perf_counter()
         self.threads = max(1, int(threads)) if threads else None
         self._pool = None
-        self._scratch = []
+        self._scratch = {}                 # integrator -> one `Scratch` per render thread
         self.desc = desc
         self.built = build(desc, threads=threads, reuse=reuse.built if reuse is not None else None)
         if reuse is not None:
@@ -97,9 +97,14 @@ class Renderer:
         self.build_seconds = _time.perf_counter() - t0
         self._lights = None
         self._path_top = None
-        # the path integrator's shadow rays in 16-ray packets where Embree runs them 16-wide (AVX-512), else
-        # one by one (set before the first path render to choose otherwise, as the tests do)
-        self.shadow_packets = self.built.device.native_ray16
+        # packets of 16 rays traced 16 or 8 at a time (`embree.Device.packet_width`); the path integrator's
+        # shadow rays in packets where Embree runs them with its own kernels (AVX-512, AVX2), else one by one
+        # (set both before the first render to choose otherwise, as the tests do).  The cook integrator's
+        # camera packets stay one 16-ray query: where Embree emulates it (AVX2) its hits are those of single
+        # rays, where its 8-wide kernels' differ in the last bits (t, u, v), and cook's images are those of
+        # before the path integrator (issue 13); its shadow queue only asks yes or no, in `packet_width`s.
+        self.packet_width = self.built.device.packet_width
+        self.shadow_packets = self.built.device.native_packets
 
     def path_lights(self):
         """The path integrator's light record (built on its first use: cook renders never build it), and
@@ -138,10 +143,12 @@ class Renderer:
         `ray_record.RayRecord` that receives every ray (benchmarks)."""
         pp = self.pass_params(o, s0, s1, setup.ctab, setup.use_lens, setup.use_time, window)
         n = self.n_threads() if s1 > s0 else 1
-        while len(self._scratch) < n:
-            self._scratch.append(new_scratch(len(self.built.data.li_type)))
+        scratch = self._scratch.setdefault(o.integrator, [])
+        while len(scratch) < n:
+            scratch.append(new_scratch(len(self.built.data.li_type), self.packet_width,
+                                       self.packet_width if o.integrator == 'path' else 16))
         work = np.zeros(1, np.int64)             # the pass's tile counter (tiles.next_tile)
-        data, handle, scratch, entry = self.built.data, self.built.handle, self._scratch, setup.entry
+        data, handle, entry = self.built.data, self.built.handle, setup.entry
         if ray_record is not None:
             scratch = [s._replace(rec=ray_record) for s in scratch]
         if o.integrator == 'path':

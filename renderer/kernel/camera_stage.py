@@ -14,7 +14,7 @@ from .filters import filter_offset
 from .jit import STAGE_JIT
 from .samplers import SOBOL, sample_1d, sample_2d, sample_pixel_lens, sobol_packet
 from .tables import C_FAR, C_NEAR
-from .trace import PACKET, set_ray16
+from .trace import PACKET, set_packet_ray
 
 
 @nb.njit(**STAGE_JIT)
@@ -89,5 +89,5 @@ def camera_rays_into(pp, lanes, packet, n):
     lo = lanes.o
     ld = lanes.d
     for j in range(n):
-        set_ray16(packet, j, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]), cam[C_NEAR], cam[C_FAR],
+        set_packet_ray(packet, j, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]), cam[C_NEAR], cam[C_FAR],
                   lanes.time[0, j])

@@ -12,7 +12,8 @@ simulated (as in the course).
 
 The kernel is a megakernel: one numba-parallel loop over image tiles, each thread tracing whole
 paths on the two-level Embree scene: camera rays and first-hit shadow rays (the coherent ones) in
-16-ray packets (rtcIntersect16 / rtcOccluded16), deeper bounces (which start at the surface: tnear 0,
+packets of 16 (`trace.Packet`: one 16-wide query, or two 8-wide ones where the CPU has no 16-wide
+kernels), deeper bounces (which start at the surface: tnear 0,
 tfar infinite) with rtcIntersect1 / rtcOccluded1.  Tiles are visited in a scattered order so that both
 threads get a mix of cheap and expensive regions.  Every random number is a pure function of (seed,
 pixel, sample index, dimension), so the image is bit-identical for a given seed whatever the thread
@@ -46,8 +47,8 @@ from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import surface
 from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
 from .tiles import claim_tile
-from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet16, alloc_ray_buffer, hit_of, intersect1,
-                    intersect16_coherent, lane_hit, occluded1, occluded16, set_ray16)
+from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
+                    intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
 from .vecmath import dot, normalize, offset_origin, onb, reflect
 
 # counters (per tile): rays by kind, samples dropped as non-finite, and how many of the shadow rays were
@@ -62,16 +63,17 @@ def _n_lights(S):
     return S.li_type.shape[0] if S.li_type[0] >= 0 else 0
 
 
-def new_scratch(n_lights):
+def new_scratch(n_lights, width=16, camera_width=16):
     """One thread's scratch for `render_tiles`, allocated by the host (numpy) once per render: the camera
     `Packet`, the single-ray buffer (f, u), matrix scratch, the tile's counters, the first-hit
     `ShadowQueue` and the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
-    vectorise).  The kernels allocate nothing."""
+    vectorise).  The queue's packets are traced `width` (16 or 8: `embree.Device.packet_width`) rays at a
+    time, the camera packets `camera_width`.  The kernels allocate nothing."""
     f, u = alloc_ray_buffer()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
     # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
     # whole packet by `sobol_packet` with the Sobol' sampler
-    queue = ShadowQueue(alloc_packet16(), np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
+    queue = ShadowQueue(alloc_packet(width), np.zeros(PACKET, np.int64), np.zeros((PACKET, 3)), np.zeros(1, np.int64),
                         np.zeros((PACKET, 3)), np.zeros((2 * max(n_lights, 1), PACKET)))
     # origins, directions (3, PACKET); times; (pixel, index, x, y); radiance (PACKET, 3); the samples of
     # the pixel and lens pairs (4, PACKET); film positions (2, PACKET); pixel and index as uint32 and
@@ -79,7 +81,7 @@ def new_scratch(n_lights):
     lanes = Lanes(np.zeros((3, PACKET)), np.zeros((3, PACKET)), np.zeros((1, PACKET)), np.zeros((4, PACKET), np.int64),
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
-    return Scratch(alloc_packet16(), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
+    return Scratch(alloc_packet(camera_width), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
                    queue, lanes, None)
 
 
@@ -99,8 +101,8 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum):
     """Add samples [pp.s0, pp.s1) of the pixels of `tile` to `accum`.
 
     The tile's (pixel, sample) pairs, pixel-major, are traced 16 at a time: their camera rays as one
-    rtcIntersect16 packet (16 samples of one pixel, or neighbouring pixels when a pass has few
-    samples), their first-hit shadow rays through a queue flushed as rtcOccluded16 packets; deeper
+    packet (16 samples of one pixel, or neighbouring pixels when a pass has few samples), their
+    first-hit shadow rays through a queue flushed as packets (`trace.occluded_packet`); deeper
     bounces use single rays.  Each lane's radiance is (path without the first-hit direct light) +
     (first-hit direct light), the latter summed per lane in light order, so a sample's value does
     not depend on which lanes share its packets: images stay bit-identical across thread counts
@@ -128,7 +130,7 @@ def render_tile(S, tr, pp, tile, packet, lanes, accum):
                       cam[C_NEAR], cam[C_FAR], lane_t[j])
             for k in range(3):
                 ldir[j, k] = 0.0
-        intersect16_coherent(tr.scene, packet)
+        intersect_packet_coherent(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         for j in range(n):
             path = Path(SampleKey(pp.sampler, pp.seed, ids[0, j], ids[1, j], pp.spp), j, lane_t[j])
@@ -163,11 +165,11 @@ def _accumulate(lanes, ldir, n, accum, origin, counts):
 @nb.njit(**STAGE_JIT)
 def _enqueue_shadow(tr, lane, po, wi, smax, time, c, mask):
     """Queue a shadow ray (ray mask `mask`) whose unoccluded contribution c = (r, g, b) goes to `lane`'s
-    light (`ShadowQueue.direct`); the queue is traced as one rtcOccluded16 packet when it holds 16."""
+    light (`ShadowQueue.direct`); the queue is traced as one packet when it holds 16."""
     q = tr.queue
     n = q.count[0]
-    set_ray16(q.packet, n, po, wi, 0.0, smax, time)
-    q.packet.u[MASK * PACKET + n] = mask
+    set_packet_ray(q.packet, n, po, wi, 0.0, smax, time)
+    q.packet.u[slot(q.packet, MASK, n)] = mask
     q.lane[n] = lane
     q.contrib[n, 0] = c[0]
     q.contrib[n, 1] = c[1]
@@ -179,15 +181,15 @@ def _enqueue_shadow(tr, lane, po, wi, smax, time, c, mask):
 
 @nb.njit(**SHADING_JIT)
 def _flush_shadows(scene, q):
-    """Trace the queued shadow rays as one rtcOccluded16 packet; add the unoccluded contributions
+    """Trace the queued shadow rays as one packet (`trace.occluded_packet`); add the unoccluded contributions
     to their lanes' first-hit direct light."""
     n = q.count[0]
     if n == 0:
         return
-    occluded16(scene, q.packet)
+    occluded_packet(scene, q.packet)
     qf = q.packet.f
     for e in range(n):
-        if qf[TFAR * PACKET + e] != -np.inf:
+        if qf[slot(q.packet, TFAR, e)] != -np.inf:
             j = q.lane[e]
             q.direct[j, 0] += q.contrib[e, 0]
             q.direct[j, 1] += q.contrib[e, 1]

@@ -25,10 +25,11 @@ Sampling: every random number is `sample_2d/1d(sampler, seed, pixel, index, spp,
 are DIM_PIXEL, DIM_LENS, DIM_TIME (camera) and per path vertex v the PATH_PAIRS pairs from
 `path_dim(v, P_*)`: light point (2D), light choice, BSDF direction (2D), lobe choice (also the
 opacity choice, rescaled), roulette.  Pure functions of their arguments: images are bit-identical
-whatever the thread count or the split into passes.  Camera rays are traced in 16-ray packets
-(rtcIntersect16 in Embree's coherent mode: `trace.intersect16_coherent`), BSDF rays alone (rtcIntersect1).  A shadow ray only decides whether its light sample
-counts, so where no surface is see-through it is queued with its contribution (`_defer_shadow`) and
-traced with 15 others (rtcOccluded16: Embree's fixed cost per query shared by 16 rays), the unoccluded
+whatever the thread count or the split into passes.  Camera rays are traced in packets of 16
+(Embree's coherent mode: `trace.intersect_packet_coherent`; 16 or 8 at a time, `trace.Packet`), BSDF rays
+alone (rtcIntersect1).  A shadow ray only decides whether its light sample counts, so where no surface is
+see-through and Embree runs packets natively it is queued with its contribution (`_defer_shadow`) and
+traced with 15 others (`trace.occluded_packet`: Embree's fixed cost per query shared by 8 or 16 rays), the unoccluded
 contributions added to their lanes' light once the camera packet's paths are done; in scenes with
 see-through surfaces (partial opacity) shadow rays are traced alone, through them
 (`shadow_transmittance`).
@@ -60,8 +61,8 @@ from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP,
                      MF_ROUGH, MI_MODEL)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
-                    hit_of, intersect1_masked, intersect1_surfaces, intersect16_coherent, lane_hit,
-                    occluded1_surfaces)
+                    hit_of, intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
+                    occluded1_surfaces, slot)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -95,8 +96,8 @@ def vertex_bsdf(S, sp):
 
 @nb.njit(**SHADING_INLINE_JIT)
 def queues_shadows(L):
-    """Whether a light sample's shadow ray waits in the queue for a 16-ray packet (`_defer_shadow`): where
-    Embree runs 16-ray packets with 16-wide kernels (`PathLights.shadow_packets`) and no surface is
+    """Whether a light sample's shadow ray waits in the queue for a packet (`_defer_shadow`): where
+    Embree runs packets with its own 16- or 8-wide kernels (`PathLights.shadow_packets`) and no surface is
     see-through (a see-through surface needs `shadow_transmittance`'s walk through it)."""
     return L.shadow_packets and not (F_OPACITY and L.see_through)
 
@@ -164,7 +165,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
 def _defer_shadow(tr, vtx, d, smax, c):
     """Queue the shadow ray of a light sample (from vtx.po along d up to smax; surfaces only: light shapes
     occlude nothing) whose unoccluded contribution, throughput included, is c: it goes to the lane's
-    deferred direct light (`ShadowQueue.direct`) when the queue is traced, as one rtcOccluded16 packet
+    deferred direct light (`ShadowQueue.direct`) when the queue is traced, as one packet (`trace.occluded_packet`)
     every 16 rays and at the end of the camera packet's paths (`path_tile`)."""
     tr.counts[RAYS_SHADOW] += 1
     tr.counts[RAYS_SHADOW_PACKET] += 1
@@ -234,7 +235,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
     o, d = ray
     mask = MASK_ALL
     if F_LIGHT_SHAPES:                          # (the camera ray's: its lane's in the packet, `path_tile`)
-        mask = np.int64(packet.u[MASK * PACKET + path.lane]) if v == 0 else shape_mask(L, d)
+        mask = np.int64(packet.u[slot(packet, MASK, path.lane)]) if v == 0 else shape_mask(L, d)
     if v == 0:
         hit = lane_hit(packet, path.lane, tr.f, tr.u)
     else:
@@ -378,11 +379,11 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
         camera_rays_into(pp, lanes, packet, n)
         if F_LIGHT_SHAPES and L.facing.shape[0] > 0:        # (`light_sampling.shape_mask`)
             for j in range(n):
-                packet.u[MASK * PACKET + j] = shape_mask(L, (ld[0, j], ld[1, j], ld[2, j]))
+                packet.u[slot(packet, MASK, j)] = shape_mask(L, (ld[0, j], ld[1, j], ld[2, j]))
         for j in range(n):
             record_if(tr.rec, tr.tile, RAYS_CAMERA, (lo[0, j], lo[1, j], lo[2, j]), (ld[0, j], ld[1, j], ld[2, j]),
                       pp.cam[C_NEAR], pp.cam[C_FAR], lanes.time[0, j])
-        intersect16_coherent(tr.scene, packet)
+        intersect_packet_coherent(tr.scene, packet)
         tr.counts[RAYS_CAMERA] += n
         rad = lanes.L
         for j in range(n):

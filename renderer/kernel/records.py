@@ -7,7 +7,8 @@ Per render pass
                     window of the image it renders (x0, y0, x1, y1: the whole image, or a shot's tile)
     Tile            the pixels [x0, x1) x [y0, y1) of tile `index`
 Per thread (allocated once per tile by `render_pass`; the shading code allocates nothing)
-    Packet          an RTCRayHit16 packet: valid mask, float32 and uint32 views of its fields
+    Packet          16 rays for Embree's packet queries: valid mask, float32 and uint32 views of their fields,
+                    and log2 of how many Embree traces at a time (16: one RTCRayHit16; 8: two RTCRayHit8)
     ShadowQueue     shadow rays waiting to be traced as one rtcOccluded16 packet, and the light of the
                     unoccluded ones per lane (cook: first-hit shadow rays; path: every shadow ray where no
                     surface is see-through)
@@ -39,7 +40,7 @@ from collections import namedtuple
 PassParams = namedtuple('PassParams', ['cam', 'width', 'height', 's0', 's1', 'spp', 'sampler', 'filt', 'seed',
                                        'max_depth', 'use_lens', 'use_time', 'strategy', 'window'])
 Tile = namedtuple('Tile', ['index', 'x0', 'y0', 'x1', 'y1'])
-Packet = namedtuple('Packet', ['valid', 'f', 'u'])
+Packet = namedtuple('Packet', ['valid', 'f', 'u', 'shift'])
 ShadowQueue = namedtuple('ShadowQueue', ['packet', 'lane', 'contrib', 'count', 'direct', 'light_u'])
 Lanes = namedtuple('Lanes', ['o', 'd', 'time', 'ids', 'L', 'u', 'film', 'key32', 'work'])
 Scratch = namedtuple('Scratch', ['packet', 'f', 'u', 'm', 'm32', 'counts', 'queue', 'lanes', 'rec'])

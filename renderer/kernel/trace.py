@@ -27,11 +27,15 @@ unnormalised geometric normal in the prototype's (object) space, t is in world r
 INST_ID is the top-level geomID (= instance group) and INST_PRIM_ID the row in the group.
 Misses leave Ng/u/v/primID stale: read them only if the query returned True.
 
-Packets of 16 (RTCRayHit16, SoA, 64-byte aligned)
--------------------------------------------------
-Field f of lane j is element ``f * 16 + j`` (same field numbers as above); ``valid`` is int32[16],
--1 = active.  Packets pay off for coherent rays (camera rays in tiles, shadow rays from coherent
-hits); for incoherent bounces single rays are faster (embree.md section 9).
+Packets of 16 rays (RTCRayHit16, or two RTCRayHit8; SoA, 64-byte aligned)
+-------------------------------------------------------------------------
+A `Packet` holds 16 lanes traced `2 ** packet.shift` at a time: where Embree runs 16-wide kernels (AVX-512)
+one RTCRayHit16, field f of lane j at element ``f * 16 + j``; elsewhere two RTCRayHit8 blocks (lanes 0-7,
+8-15), each traced with rtcIntersect8 / rtcOccluded8, which AVX2 CPUs run natively: there a 16-ray query is
+emulated and was slower than single rays, where two 8-ray queries take camera, shadow and BSDF rays
+1.7-2.3x faster than single rays (`benchmarks/RESULTS.md`).  ``slot(packet, f, j)`` is the element
+index either way (same field numbers as above); ``valid`` is int32[16], -1 = active.  Packets pay off
+for coherent rays (camera rays in tiles, shadow rays from coherent hits).
 """
 from __future__ import annotations
 
@@ -44,10 +48,11 @@ from .records import Hit, Packet
 
 __all__ = [
     "SYMBOL_PREFIX", "EXTERNAL_FUNCTIONS",
-    "rtcIntersect1", "rtcOccluded1", "rtcIntersect16", "rtcOccluded16", "rtcGetGeometry",
-    "rtcGetGeometryTransformEx",
+    "rtcIntersect1", "rtcOccluded1", "rtcIntersect16", "rtcOccluded16", "rtcIntersect8", "rtcOccluded8",
+    "rtcGetGeometry", "rtcGetGeometryTransformEx",
     "new_ray_buffer", "intersect1", "occluded1", "hit_of", "instance_transform",
-    "new_packet16", "set_ray16", "intersect16", "intersect16_coherent", "occluded16", "lane_hit",
+    "alloc_packet", "new_packet", "slot", "set_packet_ray", "intersect_packet", "intersect_packet_coherent",
+    "occluded_packet", "lane_hit",
 ]
 
 SYMBOL_PREFIX = "rtc_emb4_"        # host/embree.py registers LIB.<name> as SYMBOL_PREFIX + <name>
@@ -69,6 +74,9 @@ rtcOccluded1 = _external("rtcOccluded1", types.void(_p, _p, _p))
 rtcIntersect16 = _external("rtcIntersect16", types.void(_p, _p, _p, _p))
 # void rtcOccluded16(const int* valid, RTCScene, RTCRay16*, RTCOccludedArguments* = NULL)
 rtcOccluded16 = _external("rtcOccluded16", types.void(_p, _p, _p, _p))
+# the same for 8 rays (RTCRayHit8 / RTCRay8: 32-B aligned, field k of lane j at k * 8 + j)
+rtcIntersect8 = _external("rtcIntersect8", types.void(_p, _p, _p, _p))
+rtcOccluded8 = _external("rtcOccluded8", types.void(_p, _p, _p, _p))
 # RTCGeometry rtcGetGeometry(RTCScene, unsigned geomID)  (plain lookup, safe on a committed scene)
 rtcGetGeometry = _external("rtcGetGeometry", _p(_p, types.uint32))
 # void rtcGetGeometryTransformEx(RTCGeometry, unsigned instPrimID, float time, RTCFormat, void* xfm)
@@ -103,15 +111,6 @@ def alloc_ray_buffer():
     start = ((16 - buf.ctypes.data % 16) % 16) // 4
     buf = buf[start:start + RAYHIT_FLOATS]
     return buf, buf.view(np.uint32)
-
-
-def alloc_packet16():
-    """`new_packet16` for the host (numpy): a `Packet` whose ray block is 64-B aligned."""
-    raw = np.zeros(PACKET_FLOATS + PACKET + 16, np.float32)
-    start = ((64 - raw.ctypes.data % 64) % 64) // 4
-    f = raw[start:start + PACKET_FLOATS]
-    valid = raw[start + PACKET_FLOATS:start + PACKET_FLOATS + PACKET].view(np.int32)
-    return Packet(valid, f, f.view(np.uint32))
 
 
 # ----------------------------------------------------------------------------- single rays
@@ -199,46 +198,95 @@ def instance_transform(scene, inst_id, inst_prim_id, time, out):
     rtcGetGeometryTransformEx(geometry, inst_prim_id, np.float32(time), _XFM_ROW_MAJOR, out.ctypes.data)
 
 
-# ----------------------------------------------------------------------------- packets of 16
+# ----------------------------------------------------------------------------- packets of 16 rays
+def _packet_views(raw, width):
+    """A `Packet` of `width`-wide blocks on a float32 buffer of PACKET_FLOATS + PACKET + 16 floats: the ray
+    blocks from its first 64-B boundary, then the valid mask (int32[16], 64-B aligned: 1344 B later)."""
+    start = ((64 - raw.ctypes.data % 64) % 64) // 4
+    f = raw[start:start + PACKET_FLOATS]
+    valid = raw[start + PACKET_FLOATS:start + PACKET_FLOATS + PACKET].view(np.int32)
+    return Packet(valid, f, f.view(np.uint32), 4 if width == 16 else 3)
+
+
+def alloc_packet(width):
+    """`new_packet` for the host (numpy): a `Packet` traced `width` (16 or 8) rays at a time."""
+    packet = _packet_views(np.zeros(PACKET_FLOATS + PACKET + 16, np.float32), width)
+    packet.valid[:] = 0
+    return packet
+
+
 @numba.njit(**INLINE_JIT)
-def new_packet16():
-    """A `Packet`: (valid int32[16], float32[336], uint32[336]) for RTCRayHit16, 64-B aligned.
-    One over-allocated array: numba only guarantees 32-B alignment."""
+def new_packet(width):
+    """A `Packet` of 16 rays traced `width` (16 or 8) at a time: (valid int32[16], float32[336],
+    uint32[336], log2 of the width), 64-B aligned (one over-allocated array: numba only guarantees 32 B)."""
     raw = np.empty(PACKET_FLOATS + PACKET + 16, np.float32)
     start = ((64 - raw.ctypes.data % 64) % 64) // 4
     f = raw[start:start + PACKET_FLOATS]
     valid = raw[start + PACKET_FLOATS:start + PACKET_FLOATS + PACKET].view(np.int32)   # 1344 B: 64-B aligned
     valid[:] = 0
-    return Packet(valid, f, f.view(np.uint32))
+    return Packet(valid, f, f.view(np.uint32), 4 if width == 16 else 3)
 
 
 @numba.njit(**INLINE_JIT)
-def set_ray16(packet, lane, o, d, tnear, tfar, time):
+def slot(packet, field, lane):
+    """Element index of `field` (ORG_X .. INST_PRIM_ID) of lane `lane` (0-15) in a packet: one
+    RTCRayHit16 (field * 16 + lane), or two RTCRayHit8 blocks (lanes 0-7, 8-15) of 21 * 8 elements."""
+    s = packet.shift
+    return (((lane >> s) * 21 + field) << s) + (lane & ((1 << s) - 1))
+
+
+@numba.njit(**INLINE_JIT)
+def set_packet_ray(packet, lane, o, d, tnear, tfar, time):
     """Fill lane ``lane`` of a packet with a ray (and mark it valid / reset its hit ids)."""
     f = packet.f
     u = packet.u
-    f[ORG_X * PACKET + lane] = o[0]
-    f[ORG_Y * PACKET + lane] = o[1]
-    f[ORG_Z * PACKET + lane] = o[2]
-    f[TNEAR * PACKET + lane] = tnear
-    f[DIR_X * PACKET + lane] = d[0]
-    f[DIR_Y * PACKET + lane] = d[1]
-    f[DIR_Z * PACKET + lane] = d[2]
-    f[TIME * PACKET + lane] = time
-    f[TFAR * PACKET + lane] = tfar
-    u[MASK * PACKET + lane] = _ALL_MASK
-    u[RAY_ID * PACKET + lane] = 0
-    u[FLAGS * PACKET + lane] = 0
-    u[GEOM_ID * PACKET + lane] = INVALID
-    u[INST_ID * PACKET + lane] = INVALID
-    u[INST_PRIM_ID * PACKET + lane] = INVALID
+    f[slot(packet, ORG_X, lane)] = o[0]
+    f[slot(packet, ORG_Y, lane)] = o[1]
+    f[slot(packet, ORG_Z, lane)] = o[2]
+    f[slot(packet, TNEAR, lane)] = tnear
+    f[slot(packet, DIR_X, lane)] = d[0]
+    f[slot(packet, DIR_Y, lane)] = d[1]
+    f[slot(packet, DIR_Z, lane)] = d[2]
+    f[slot(packet, TIME, lane)] = time
+    f[slot(packet, TFAR, lane)] = tfar
+    u[slot(packet, MASK, lane)] = _ALL_MASK
+    u[slot(packet, RAY_ID, lane)] = 0
+    u[slot(packet, FLAGS, lane)] = 0
+    u[slot(packet, GEOM_ID, lane)] = INVALID
+    u[slot(packet, INST_ID, lane)] = INVALID
+    u[slot(packet, INST_PRIM_ID, lane)] = INVALID
     packet.valid[lane] = -1
 
 
 @numba.njit(**INLINE_JIT)
-def intersect16(scene, packet):
-    """Closest hits of the valid lanes; lane j hit iff u[GEOM_ID * 16 + j] != INVALID."""
-    rtcIntersect16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
+def _upper_half(packet):
+    """Whether any of lanes 8-15 is valid (an 8-wide packet's second block is traced only then)."""
+    for j in range(8, PACKET):
+        if packet.valid[j] != 0:
+            return True
+    return False
+
+
+# byte offset of an 8-wide packet's second block (21 fields x 8 lanes x 4 B: 32-B aligned, as RTCRayHit8 needs)
+# and of its valid mask's second half
+_BLOCK8_BYTES = 21 * 8 * 4
+_VALID8_BYTES = 8 * 4
+
+
+@numba.njit(**INLINE_JIT)
+def _intersect(scene, packet, args):
+    if packet.shift == 4:
+        rtcIntersect16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, args)
+    else:
+        rtcIntersect8(packet.valid.ctypes.data, scene, packet.f.ctypes.data, args)
+        if _upper_half(packet):
+            rtcIntersect8(packet.valid.ctypes.data + _VALID8_BYTES, scene, packet.f.ctypes.data + _BLOCK8_BYTES, args)
+
+
+@numba.njit(**INLINE_JIT)
+def intersect_packet(scene, packet):
+    """Closest hits of the valid lanes; lane j hit iff u[slot(packet, GEOM_ID, j)] != INVALID."""
+    _intersect(scene, packet, 0)
 
 
 # RTCIntersectArguments (32 B, embree.md; zero-padded): flags = RTC_RAY_QUERY_FLAG_COHERENT (1 << 16), feature
@@ -247,17 +295,22 @@ _COHERENT_ARGS = np.array([1 << 16, 0xFFFFFFFF] + [0] * 14, np.uint32)
 
 
 @numba.njit(**INLINE_JIT)
-def intersect16_coherent(scene, packet):
-    """`intersect16` for rays that travel together: a camera packet (its lanes are samples of the same
+def intersect_packet_coherent(scene, packet):
+    """`intersect_packet` for rays that travel together: a camera packet (its lanes are samples of the same
     few pixels).  Embree's coherent packet traversal takes them 1.4-2.8x faster than its default
     (incoherent) one, and 2x slower for incoherent rays (`bench_query_cost.py`): camera packets only."""
-    rtcIntersect16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, _COHERENT_ARGS.ctypes.data)
+    _intersect(scene, packet, _COHERENT_ARGS.ctypes.data)
 
 
 @numba.njit(**INLINE_JIT)
-def occluded16(scene, packet):
-    """Occlusion of the valid lanes; lane j occluded iff f[TFAR * 16 + j] == -inf."""
-    rtcOccluded16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
+def occluded_packet(scene, packet):
+    """Occlusion of the valid lanes; lane j occluded iff f[slot(packet, TFAR, j)] == -inf."""
+    if packet.shift == 4:
+        rtcOccluded16(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
+    else:
+        rtcOccluded8(packet.valid.ctypes.data, scene, packet.f.ctypes.data, 0)
+        if _upper_half(packet):
+            rtcOccluded8(packet.valid.ctypes.data + _VALID8_BYTES, scene, packet.f.ctypes.data + _BLOCK8_BYTES, 0)
 
 
 @numba.njit(**INLINE_JIT)
@@ -265,11 +318,11 @@ def lane_hit(packet, lane, f, u):
     """Copy lane `lane` of a traced packet into the single-ray buffer (f, u); True on a hit."""
     cf = packet.f
     cu = packet.u
-    f[TFAR] = cf[TFAR * PACKET + lane]
-    f[U] = cf[U * PACKET + lane]
-    f[V] = cf[V * PACKET + lane]
-    u[PRIM_ID] = cu[PRIM_ID * PACKET + lane]
-    u[GEOM_ID] = cu[GEOM_ID * PACKET + lane]
-    u[INST_ID] = cu[INST_ID * PACKET + lane]
-    u[INST_PRIM_ID] = cu[INST_PRIM_ID * PACKET + lane]
+    f[TFAR] = cf[slot(packet, TFAR, lane)]
+    f[U] = cf[slot(packet, U, lane)]
+    f[V] = cf[slot(packet, V, lane)]
+    u[PRIM_ID] = cu[slot(packet, PRIM_ID, lane)]
+    u[GEOM_ID] = cu[slot(packet, GEOM_ID, lane)]
+    u[INST_ID] = cu[slot(packet, INST_ID, lane)]
+    u[INST_PRIM_ID] = cu[slot(packet, INST_PRIM_ID, lane)]
     return u[GEOM_ID] != INVALID

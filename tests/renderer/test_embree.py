@@ -314,13 +314,19 @@ def _random_scene_and_rays(dev, n_rays):
 
 
 def test_packets_agree_with_single_rays(dev):
+    """Packets of 16 traced as one 16-ray query or as two 8-ray ones (`trace.Packet`), in Embree's default
+    and coherent modes, find the hits single rays find."""
     top, rays = _random_scene_and_rays(dev, 10_000)
     n = len(rays[0])
     results = []
-    for kernel in (embree_loops.trace_rays, embree_loops.trace_rays16, embree_loops.trace_rays16_coherent):
-        t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
-        kernel(top.handle, *rays, t, ids)
-        results.append((t, ids))
+    t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
+    embree_loops.trace_rays(top.handle, *rays, t, ids)
+    results.append((t, ids))
+    for kernel in (embree_loops.trace_packets, embree_loops.trace_packets_coherent):
+        for width in (16, 8):
+            t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
+            kernel(top.handle, *rays, t, ids, width)
+            results.append((t, ids))
     (t1, ids1), *packets = results
     hit = ids1[:, 1] != INVALID
     assert 0.2 < hit.mean() < 0.9
@@ -330,10 +336,13 @@ def test_packets_agree_with_single_rays(dev):
         np.testing.assert_allclose(t16[same], t1[same], rtol=1e-5)
     assert (t1[~hit] == rays[3][~hit]).all()          # misses leave tfar
 
-    occluded1, occluded16 = np.empty(n, bool), np.empty(n, bool)
+    occluded1 = np.empty(n, bool)
     embree_loops.occlude_rays(top.handle, *rays, occluded1)
-    embree_loops.occlude_rays16(top.handle, *rays, occluded16)
-    assert (occluded1 == hit).mean() > 0.999 and (occluded16 == occluded1).mean() > 0.999
+    assert (occluded1 == hit).mean() > 0.999
+    for width in (16, 8):
+        occluded = np.empty(n, bool)
+        embree_loops.occlude_packets(top.handle, *rays, occluded, False, width)
+        assert (occluded == occluded1).mean() > 0.999
 
     single = probe(top, rays[0][:500], rays[1][:500], 0.0)[3]   # inline helper == bare loop (time 0)
     t0, ids0 = np.empty(500, np.float32), np.empty((500, 4), np.uint32)
@@ -357,11 +366,13 @@ def test_shadow_replay_carries_the_path_integrators_mask(dev):
     origins = np.stack([x, np.zeros(n), np.zeros(n)], 1).astype(np.float32)
     dirs = np.tile(np.array([0, 0, 1], np.float32), (n, 1))
     rays = (origins, dirs, np.zeros(n, np.float32), np.full(n, 10, np.float32), np.zeros(n, np.float32))
-    for loop in (embree_loops.occlude_rays, embree_loops.occlude_rays16):
+    loops = (embree_loops.occlude_rays, lambda *a: embree_loops.occlude_packets(*a, 16),
+             lambda *a: embree_loops.occlude_packets(*a, 8))
+    for k, loop in enumerate(loops):
         for surfaces, expected in ((False, (x < 0) | (x > 0.5)), (True, x < 0)):
             out = np.empty(n, bool)
             loop(top.handle, *rays, out, surfaces)
-            assert (out == expected).all(), (loop, surfaces)
+            assert (out == expected).all(), (k, surfaces)
     for s in [top] + protos:
         s.close()
 
