@@ -29,6 +29,16 @@ ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 KERNELS = ("trace_rays", "trace_packets", "occlude_rays", "occlude_packets")
 
 
+def run_kernel(loops, kernel: str, handle: int, rays: tuple, out: tuple) -> None:
+    """Call the `embree_loops` kernel named `kernel` on rays (origins, dirs, tnear, tfar, time): the packet
+    loops take them as one tuple, the single-ray loops one by one."""
+    fn = getattr(loops, kernel)
+    if kernel.endswith("packets"):
+        fn(handle, rays, *out)
+    else:
+        fn(handle, *rays, *out)
+
+
 def uv_sphere(n: int):
     theta, phi = np.meshgrid(np.linspace(0, np.pi, n), np.linspace(0, 2 * np.pi, 2 * n), indexing="ij")
     v = np.stack([np.sin(theta) * np.cos(phi), np.cos(theta), np.sin(theta) * np.sin(phi)], -1).reshape(-1, 3)
@@ -103,7 +113,7 @@ def throughput(rounds: int):
                 out_t, out_ids, out_occ = outputs[name]
                 args = (out_t, out_ids) if kernel.startswith("trace") else (out_occ,)
                 start = time.perf_counter()
-                getattr(trace, kernel)(scenes[robust][1].handle, *sets[name], *args)
+                run_kernel(trace, kernel, scenes[robust][1].handle, sets[name], args)
                 times[(kernel, name, robust)].append(time.perf_counter() - start)
         print(f"scene: 400 instances x 64770 triangles; {n} primary / random rays, {n_shadow} shadow rays; "
               f"{rounds} interleaved rounds, median Mrays/s")
@@ -136,7 +146,10 @@ with Device() as dev:
     first = {{}}
     for name in {kernels!r}:
         a = time.perf_counter()
-        getattr(trace, name)(top.handle, o, d, z, z + np.inf, z, *((t, ids) if name.startswith("trace") else (occ,)))
+        rays = (o, d, z, z + np.inf, z)
+        out = (t, ids) if name.startswith("trace") else (occ,)
+        fn = getattr(trace, name)
+        fn(top.handle, rays, *out) if name.endswith("packets") else fn(top.handle, *rays, *out)
         first[name] = time.perf_counter() - a
     top.close()
 print(imported - start, *first.values(), time.perf_counter() - start)

@@ -93,7 +93,7 @@ def _trace(handle, rays, mode: str, width: int) -> float:
     if mode == 'single':
         trace_rays(handle, o, d, tn, tf, tm, t_out, ids)
     else:
-        (trace_packets if mode == 'packets' else trace_packets_coherent)(handle, o, d, tn, tf, tm, t_out, ids, width)
+        (trace_packets if mode == 'packets' else trace_packets_coherent)(handle, rays, t_out, ids, width)
     return time.perf_counter() - t0
 
 

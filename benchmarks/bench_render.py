@@ -108,14 +108,14 @@ def replay(handle: int, kind: str, rays, packets: bool, path: bool = True, masks
     t0 = time.perf_counter()
     if kind.startswith('shadow'):
         if packets:
-            occlude_packets(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path, width)
+            occlude_packets(handle, rays, np.empty(n, np.bool_), path, width)
         else:
             occlude_rays(handle, o, d, tn, tf, tm, np.empty(n, np.bool_), path)
     elif masks is not None:
         trace_rays_masked(handle, rays, masks, np.empty(n, np.float32), np.empty((n, 4), np.uint32),
                           width if packets else 0)
     elif packets:
-        trace_packets(handle, o, d, tn, tf, tm, np.empty(n, np.float32), np.empty((n, 4), np.uint32), width)
+        trace_packets(handle, rays, np.empty(n, np.float32), np.empty((n, 4), np.uint32), width)
     else:
         trace_rays(handle, o, d, tn, tf, tm, np.empty(n, np.float32), np.empty((n, 4), np.uint32))
     return time.perf_counter() - t0

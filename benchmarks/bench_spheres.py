@@ -61,11 +61,11 @@ def main(argv=None) -> int:
     n = a.rays
     queries = {
         'intersect1': lambda h, out: EL.trace_rays(h, *r, out[0], out[1]),
-        'intersect16': lambda h, out: EL.trace_packets(h, *r, out[0], out[1], 16),
-        'intersect8x2': lambda h, out: EL.trace_packets(h, *r, out[0], out[1], 8),
+        'intersect16': lambda h, out: EL.trace_packets(h, r, out[0], out[1], 16),
+        'intersect8x2': lambda h, out: EL.trace_packets(h, r, out[0], out[1], 8),
         'occluded1': lambda h, out: EL.occlude_rays(h, *r, out[2]),
-        'occluded16': lambda h, out: EL.occlude_packets(h, *r, out[2], False, 16),
-        'occluded8x2': lambda h, out: EL.occlude_packets(h, *r, out[2], False, 8),
+        'occluded16': lambda h, out: EL.occlude_packets(h, r, out[2], False, 16),
+        'occluded8x2': lambda h, out: EL.occlude_packets(h, r, out[2], False, 8),
     }
     print(f'{n} rays, {a.threads} thread(s), medians of {a.rounds} alternating rounds: ns a ray, SPHERE_POINT / user')
     with Device(threads=a.threads) as dev:

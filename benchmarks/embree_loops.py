@@ -138,23 +138,22 @@ def _trace_item16(scene, item, rays, out, coherent, masks, width):
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_packets(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, width=16):
-    """``trace_rays`` in packets of 16 consecutive rays (`trace.Packet`, traced `width` = 16 or 8 at a time;
-    order rays coherently, e.g. 4x4 pixel tiles, for packets to pay off)."""
-    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+def trace_packets(scene, rays, out_t, out_ids, width=16):
+    """``trace_rays`` of rays = (origins, dirs, tnear, tfar, time) in packets of 16 consecutive rays
+    (`trace.Packet`, traced `width` = 16 or 8 at a time; order rays coherently, e.g. 4x4 pixel tiles, for
+    packets to pay off)."""
+    n_items = (rays[0].shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), (out_t, out_ids), False,
-                      None, width)
+        _trace_item16(scene, _work_item(i, n_items), rays, (out_t, out_ids), False, None, width)
 
 
 @numba.njit(**JIT, parallel=True)
-def trace_packets_coherent(scene, origins, dirs, tnear, tfar, time, out_t, out_ids, width=16):
+def trace_packets_coherent(scene, rays, out_t, out_ids, width=16):
     """``trace_packets`` in Embree's coherent mode (RTC_RAY_QUERY_FLAG_COHERENT,
     `trace.intersect_packet_coherent`)."""
-    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+    n_items = (rays[0].shape[0] + CHUNK - 1) // CHUNK
     for i in numba.prange(n_items):
-        _trace_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), (out_t, out_ids), True,
-                      None, width)
+        _trace_item16(scene, _work_item(i, n_items), rays, (out_t, out_ids), True, None, width)
 
 
 @numba.njit(**JIT)
@@ -174,9 +173,10 @@ def _occlude_item16(scene, item, rays, out_occluded, mask, width):
 
 
 @numba.njit(**JIT, parallel=True)
-def occlude_packets(scene, origins, dirs, tnear, tfar, time, out_occluded, surfaces=False, width=16):
-    """``occlude_rays`` in packets of 16 consecutive rays (traced `width` = 16 or 8 at a time)."""
-    n_items = (origins.shape[0] + CHUNK - 1) // CHUNK
+def occlude_packets(scene, rays, out_occluded, surfaces=False, width=16):
+    """``occlude_rays`` of rays = (origins, dirs, tnear, tfar, time) in packets of 16 consecutive rays
+    (traced `width` = 16 or 8 at a time)."""
+    n_items = (rays[0].shape[0] + CHUNK - 1) // CHUNK
     mask = MASK_SURFACES if surfaces else MASK_ALL
     for i in numba.prange(n_items):
-        _occlude_item16(scene, _work_item(i, n_items), (origins, dirs, tnear, tfar, time), out_occluded, mask, width)
+        _occlude_item16(scene, _work_item(i, n_items), rays, out_occluded, mask, width)

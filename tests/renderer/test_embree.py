@@ -325,7 +325,7 @@ def test_packets_agree_with_single_rays(dev):
     for kernel in (embree_loops.trace_packets, embree_loops.trace_packets_coherent):
         for width in (16, 8):
             t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
-            kernel(top.handle, *rays, t, ids, width)
+            kernel(top.handle, rays, t, ids, width)
             results.append((t, ids))
     (t1, ids1), *packets = results
     hit = ids1[:, 1] != INVALID
@@ -341,7 +341,7 @@ def test_packets_agree_with_single_rays(dev):
     assert (occluded1 == hit).mean() > 0.999
     for width in (16, 8):
         occluded = np.empty(n, bool)
-        embree_loops.occlude_packets(top.handle, *rays, occluded, False, width)
+        embree_loops.occlude_packets(top.handle, rays, occluded, False, width)
         assert (occluded == occluded1).mean() > 0.999
 
     single = probe(top, rays[0][:500], rays[1][:500], 0.0)[3]   # inline helper == bare loop (time 0)
@@ -366,8 +366,9 @@ def test_shadow_replay_carries_the_path_integrators_mask(dev):
     origins = np.stack([x, np.zeros(n), np.zeros(n)], 1).astype(np.float32)
     dirs = np.tile(np.array([0, 0, 1], np.float32), (n, 1))
     rays = (origins, dirs, np.zeros(n, np.float32), np.full(n, 10, np.float32), np.zeros(n, np.float32))
-    loops = (embree_loops.occlude_rays, lambda *a: embree_loops.occlude_packets(*a, 16),
-             lambda *a: embree_loops.occlude_packets(*a, 8))
+    loops = (embree_loops.occlude_rays,
+             lambda h, *a: embree_loops.occlude_packets(h, a[:5], a[5], a[6], 16),
+             lambda h, *a: embree_loops.occlude_packets(h, a[:5], a[5], a[6], 8))
     for k, loop in enumerate(loops):
         for surfaces, expected in ((False, (x < 0) | (x > 0.5)), (True, x < 0)):
             out = np.empty(n, bool)

@@ -116,7 +116,7 @@ def test_masks_packets_and_single_rays_agree(dev):
     d /= np.linalg.norm(d, axis=1, keepdims=True)
     rays = (o, d, np.zeros(n, np.float32), rng.uniform(1, 12, n).astype(np.float32), np.zeros(n, np.float32))
     results = []
-    kernels = [embree_loops.trace_rays] + [lambda *a, k=k, w=w: k(*a, w) for w in (16, 8)
+    kernels = [embree_loops.trace_rays] + [lambda h, *a, k=k, w=w: k(h, a[:5], a[5], a[6], w) for w in (16, 8)
                                            for k in (embree_loops.trace_packets, embree_loops.trace_packets_coherent)]
     for kernel in kernels:
         t, ids = np.empty(n, np.float32), np.empty((n, 4), np.uint32)
@@ -129,8 +129,9 @@ def test_masks_packets_and_single_rays_agree(dev):
     hit = ids1[:, 1] != INVALID
     assert 0.1 < hit.mean() < 0.9 and (ids1[hit, 2] == 1).sum() > 50      # the lamp is met
     for surfaces in (False, True):
-        for k, loop in enumerate((embree_loops.occlude_rays, lambda *a: embree_loops.occlude_packets(*a, 16),
-                                  lambda *a: embree_loops.occlude_packets(*a, 8))):
+        for k, loop in enumerate((embree_loops.occlude_rays,
+                                  lambda h, *a: embree_loops.occlude_packets(h, a[:5], a[5], a[6], 16),
+                                  lambda h, *a: embree_loops.occlude_packets(h, a[:5], a[5], a[6], 8))):
             out = np.empty(n, bool)
             loop(top.handle, *rays, out, surfaces)
             expected = hit if not surfaces else _any_surface(o, d, rays[3], rows)
