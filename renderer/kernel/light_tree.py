@@ -7,8 +7,8 @@ weight of a BSDF-sampled ray that finds it).  `L` is the `PathLights` record.
 The tree is binary, stored in blocks of three levels (`host/light_tree.py`): entering a block, a walk
 computes the importances of its 14 nodes in one loop over the block's field-major row, which LLVM
 vectorises (without branches, with numpy's error model: numba's default checks every division for
-zero, and a check is a branch), into doubles on the walk's stack (`_stack_doubles`), and takes its
-binary steps from them.  The choices are the binary tree's, so its noise is; 1000 lights: 4 loops of
+zero, and a check is a branch), into float32s on the walk's stack (`_stack_floats`), and takes its
+binary steps from them (each pair's probability in double).  The choices are the binary tree's, so its noise is; 1000 lights: 4 loops of
 16 float32 lanes instead of 20 importances one by one (whole renders 1.04-1.11x; `benchmarks/
 RESULTS.md`, "Many lights").  A walk's position is (block, slot): slot -1 is the block's root, the
 children of slot s are slots 2s + 2 and 2s + 3, and a node in the block's last level is the root of
@@ -36,28 +36,35 @@ SPLIT_DEEP = 0.01
 _ONE32, _ZERO32, _TINY32 = np.float32(1.0), np.float32(0.0), np.float32(1e-30)
 
 
-_DOUBLES = types.Array(types.float64, 1, 'C')
+def _on_stack(dtype):
+    """An intrinsic giving an array of TREE_SLOTS `dtype`s on the stack of the function that calls it
+    (an alloca in its entry block: an intrinsic's code is emitted into its caller; no meminfo): the
+    walks' scratch (the kernels allocate nothing on the heap)."""
+    array = types.Array(dtype, 1, 'C')
+
+    def stack(typingctx):
+        def codegen(context, builder, sig, args):
+            data = cgutils.alloca_once(builder, context.get_value_type(dtype), size=TREE_SLOTS)
+            ary = make_array(array)(context, builder)
+            itemsize = context.get_constant(types.intp, dtype.bitwidth // 8)
+            populate_array(ary, data=data, shape=[context.get_constant(types.intp, TREE_SLOTS)], strides=[itemsize],
+                           itemsize=itemsize, meminfo=None)
+            return ary._getvalue()
+        return array(), codegen
+    stack.__name__ = stack.__qualname__ = f'stack_of_{dtype}'
+    return intrinsic(stack)
 
 
-@intrinsic
-def _stack_doubles(typingctx):
-    """An array of TREE_SLOTS doubles on the stack of the function that calls it (an alloca in its
-    entry block: an intrinsic's code is emitted into its caller; no meminfo): the walks' scratch for a
-    node's importances (the kernels allocate nothing on the heap)."""
-    def codegen(context, builder, sig, args):
-        data = cgutils.alloca_once(builder, context.get_value_type(types.float64), size=TREE_SLOTS)
-        ary = make_array(_DOUBLES)(context, builder)
-        itemsize = context.get_constant(types.intp, 8)
-        populate_array(ary, data=data, shape=[context.get_constant(types.intp, TREE_SLOTS)], strides=[itemsize],
-                       itemsize=itemsize, meminfo=None)
-        return ary._getvalue()
-    return _DOUBLES(), codegen
+_stack_floats = _on_stack(types.float32)       # a block's importances (`importances`)
+_stack_doubles = _on_stack(types.float64)      # its pairs' probabilities (`_enter`)
 
 
 @nb.njit(**dict(_JIT, error_model='numpy'))
 def importances(tf, block, p, n, w):
     """The importance of each node of block `block` (a row of tf = PathLights.tree_f) at point p with
-    normal n, into w (TREE_SLOTS doubles).  A node's importance: its power over the squared distance
+    normal n, into w (TREE_SLOTS float32s: stored as doubles, LLVM vectorised the loop four lanes a
+    register on AVX2, to convert them; float32 stores take eight, and a block 49 ns instead of 96 ns on
+    the AVX2 host of `benchmarks/RESULTS.md`, the same values).  A node's importance: its power over the squared distance
     (at least its bounding radius, as pbrt's half diagonal), times upper bounds of the cosine at the
     lights (the angle between the direction to p and the cone of emission normals, less the angle the
     node's bounding sphere subtends; zero beyond pi/2, where no light emits) and of the cosine at the
@@ -112,12 +119,13 @@ def importances(tf, block, p, n, w):
 def _enter(tf, block, p, n, w, pr):
     """Entering block `block`: its importances at p, n into w (`importances`) and, for each pair k of
     siblings (slots 2k and 2k + 1: the children of slot k - 1, the block root's for k = 0), the
-    probability of the first, w[2k] / (w[2k] + w[2k + 1]), into pr[k] (NaN where both are 0: no child
-    to take).  One loop over the pairs (LLVM vectorises it) instead of a division per binary step: a
+    probability of the first, w[2k] / (w[2k] + w[2k + 1]) in double (as `light_pmf` computes it), into
+    pr[k] (NaN where both are 0: no child to take).  One loop over the pairs (LLVM vectorises it) instead of a division per binary step: a
     walk's steps wait on each other, and each waited on its division."""
     importances(tf, block, p, n, w)
     for k in range(TREE_SLOTS // 2):
-        pr[k] = w[2 * k] / (w[2 * k] + w[2 * k + 1])
+        a, b = np.float64(w[2 * k]), np.float64(w[2 * k + 1])
+        pr[k] = a / (a + b)
 
 
 @nb.njit(**_JIT)
@@ -157,7 +165,7 @@ def _walk(L, p, n, block, slot, pmf, u):
     probability), and its probability (times `pmf`, the probability of reaching that slot)."""
     tf = L.tree_f
     ti = L.tree_i
-    w, pr = _stack_doubles(), _stack_doubles()
+    w, pr = _stack_floats(), _stack_doubles()
     if ti[block, slot] == 0:                         # an inner slot: its children are in this block
         _enter(tf, block, p, n, w, pr)
     block, slot, light = _step(tf, ti, block, slot, p, n, w, pr)
@@ -206,7 +214,7 @@ def choose_lights(L, p, n, u):
     u = min((u - pu) / (1.0 - pu), ONE_MINUS)
     tf = L.tree_f
     ti = L.tree_i
-    w, pr = _stack_doubles(), _stack_doubles()
+    w, pr = _stack_floats(), _stack_doubles()
     _enter(tf, 0, p, n, w, pr)
     block, slot, light = 0, -1, -1
     pmf = 1.0 - pu                                   # probability of reaching the slot (its walk's choices)
@@ -265,7 +273,7 @@ def light_pmf(L, p, n, k):
         return pu / L.unbounded.shape[0] if pu > 0.0 else 0.0
     tf = L.tree_f
     ti = L.tree_i
-    w = _stack_doubles()                             # (its trail is known: no step waits on a division)
+    w = _stack_floats()                              # (its trail is known: no step waits on a division)
     importances(tf, 0, p, n, w)
     block, slot = 0, -1
     pmf = 1.0 - _p_unbounded(L)
@@ -275,7 +283,7 @@ def light_pmf(L, p, n, k):
     side = False                                     # k is past a split node's less likely child
     for level in range(d):
         c0 = 2 * slot + 2
-        i0, i1 = w[c0], w[c0 + 1]
+        i0, i1 = np.float64(w[c0]), np.float64(w[c0 + 1])
         if not (i0 + i1 > 0.0):
             return 0.0
         p0 = i0 / (i0 + i1)

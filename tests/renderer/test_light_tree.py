@@ -104,12 +104,13 @@ def _trail_qs(L, k, p, n):
     """The probability q of the less likely child at each node on light k's trail (walking the blocks as
     the kernel does: slot -1 is a block's root, the children of slot s are slots 2s + 2 and 2s + 3)."""
     tf, ti = L.tree_f, L.tree_i
-    w = np.zeros(TREE_SLOTS)
+    w = np.zeros(TREE_SLOTS, np.float32)
     block, slot, qs = 0, -1, []
     importances(tf, block, p, n, w)
     for level in range(L.depth[k]):
         c0 = 2 * slot + 2
-        qs.append(min(w[c0], w[c0 + 1]) / (w[c0] + w[c0 + 1]))
+        i0, i1 = float(w[c0]), float(w[c0 + 1])       # (the kernels' pair probabilities are in double)
+        qs.append(min(i0, i1) / (i0 + i1))
         s = c0 + ((L.trail[k] >> level) & 1)
         if ti[block, s] > 0:
             block, slot = ti[block, s], -1
@@ -185,7 +186,7 @@ def test_a_point_lights_importance_is_power_over_distance_squared_times_the_cosi
     slots[T_W:T_W + 3, 3] = ENTIRE[0]
     slots[T_COS_O, 3] = -1.0
     p, n = (0.0, 0.0, 0.0), (0.0, 1.0, 0.0)
-    w = np.full(TREE_SLOTS, np.nan)
+    w = np.full(TREE_SLOTS, np.nan, np.float32)
     importances(tf, 0, p, n, w)
     assert w[3] == pytest.approx(10.0 / 5.0 * 2.0 / math.sqrt(5.0), rel=1e-6)
     assert np.all(np.delete(w, 3) == 0.0)
@@ -203,7 +204,7 @@ def test_a_flat_emitter_lights_its_back_only_when_two_sided():
         slots[T_W:T_W + 3, j] = (0.0, 1.0, 0.0)
         slots[T_COS_O, j] = 1.0
         slots[T_SIN_O, j] = -0.0 if two else 0.0
-    below, above = np.zeros(TREE_SLOTS), np.zeros(TREE_SLOTS)
+    below, above = np.zeros(TREE_SLOTS, np.float32), np.zeros(TREE_SLOTS, np.float32)
     importances(tf, 0, (0.0, -4.0, 0.0), (0.0, 1.0, 0.0), below)
     importances(tf, 0, (0.0, 4.0, 0.0), (0.0, -1.0, 0.0), above)
     assert above[0] > 0.0 and above[0] == above[1]
@@ -224,13 +225,14 @@ def test_entering_a_block_gives_each_sibling_pair_the_first_childs_probability()
         slots[T_W:T_W + 3, j] = ENTIRE[0]
         slots[T_COS_O, j] = -1.0
     p, n = (0.0, -6.0, 0.0), (0.0, 1.0, 0.0)
-    w, pr = np.full(TREE_SLOTS, np.nan), np.full(TREE_SLOTS, -1.0)
+    w, pr = np.full(TREE_SLOTS, np.nan, np.float32), np.full(TREE_SLOTS, -1.0)
     _enter(tf, 0, p, n, w, pr)
-    ref = np.full(TREE_SLOTS, np.nan)
+    ref = np.full(TREE_SLOTS, np.nan, np.float32)
     importances(tf, 0, p, n, ref)
     assert np.array_equal(w, ref) and np.all(ref[:10] > 0.0)
     for k in range(5):
-        assert pr[k] == ref[2 * k] / (ref[2 * k] + ref[2 * k + 1])
+        a, b = float(ref[2 * k]), float(ref[2 * k + 1])
+        assert pr[k] == a / (a + b)
     assert np.all(np.isnan(pr[5:8]))
 
 
