@@ -8,11 +8,11 @@ The tree is binary, stored in blocks of three levels (`host/light_tree.py`): ent
 computes the importances of its 14 nodes in one loop over the block's field-major row, which LLVM
 vectorises (without branches, with numpy's error model: numba's default checks every division for
 zero, and a check is a branch), into float32s on the walk's stack (`_stack_floats`), and takes its
-binary steps from them (each pair's probability in double).  The choices are the binary tree's, so its noise is; 1000 lights: 4 loops of
-16 float32 lanes instead of 20 importances one by one (whole renders 1.04-1.11x; `benchmarks/
-RESULTS.md`, "Many lights").  A walk's position is (block, slot): slot -1 is the block's root, the
-children of slot s are slots 2s + 2 and 2s + 3, and a node in the block's last level is the root of
-the block tree_i names.
+binary steps from them (each pair's probability in double).  The choices are the binary tree's, so
+its noise is; 1000 lights: 4 loops of 16 float32 lanes instead of 20 importances one by one (whole
+renders 1.04-1.11x; `benchmarks/RESULTS.md`, "Many lights").  A walk's position is (block, slot):
+slot -1 is the block's root, the children of slot s are slots 2s + 2 and 2s + 3, and a node in the
+block's last level is the root of the block tree_i names.
 """
 import math
 
@@ -47,8 +47,8 @@ def _on_stack(dtype):
             data = cgutils.alloca_once(builder, context.get_value_type(dtype), size=TREE_SLOTS)
             ary = make_array(array)(context, builder)
             itemsize = context.get_constant(types.intp, dtype.bitwidth // 8)
-            populate_array(ary, data=data, shape=[context.get_constant(types.intp, TREE_SLOTS)], strides=[itemsize],
-                           itemsize=itemsize, meminfo=None)
+            populate_array(ary, data=data, shape=[context.get_constant(types.intp, TREE_SLOTS)],
+                           strides=[itemsize], itemsize=itemsize, meminfo=None)
             return ary._getvalue()
         return array(), codegen
     stack.__name__ = stack.__qualname__ = f'stack_of_{dtype}'
@@ -61,21 +61,20 @@ _stack_doubles = _on_stack(types.float64)      # its pairs' probabilities (`_ent
 
 @nb.njit(**dict(_JIT, error_model='numpy'))
 def importances(tf, block, p, n, w):
-    """The importance of each node of block `block` (a row of tf = PathLights.tree_f) at point p with
-    normal n, into w (TREE_SLOTS float32s: stored as doubles, LLVM vectorised the loop four lanes a
-    register on AVX2, to convert them; float32 stores take eight, and a block 49 ns instead of 96 ns on
-    the AVX2 host of `benchmarks/RESULTS.md`, the same values).  A node's importance: its power over the squared distance
-    (at least its bounding radius, as pbrt's half diagonal), times upper bounds of the cosine at the
-    lights (the angle between the direction to p and the cone of emission normals, less the angle the
-    node's bounding sphere subtends; zero beyond pi/2, where no light emits) and of the cosine at the
-    receiver.  Inside the bounding sphere every direction is possible: both bounds are 1.  Nodes whose
-    normals point everywhere (cos theta_o = -1: points, spheres, mixed nodes) skip the cone bound.  Ten
-    float32 fields a slot (ten cache lines a block: the loads are the loop's cost, more than its
-    arithmetic; `benchmarks/RESULTS.md`).  In float32, as the table is (sixteen lanes
-    of one AVX-512 register; the choices need no more: float32 can zero a node that lights p only where
-    its cosine bound is within ~1e-7 of 0, a share of its light of that order), without branches
-    (selects), and the number of slots read from the table, not a constant, so that LLVM vectorises the
-    loop instead of unrolling it."""
+    """The importance of each node of block `block` (a row of tf = PathLights.tree_f) at point p with normal n,
+    into w (TREE_SLOTS float32s: stored as doubles, LLVM vectorised the loop four lanes a register on AVX2,
+    to convert them; float32 stores take eight, and a block 49 ns instead of 96 ns on the AVX2 host of
+    `benchmarks/RESULTS.md`, the same values).  A node's importance: its power over the squared distance (at
+    least its bounding radius, as pbrt's half diagonal), times upper bounds of the cosine at the lights (the
+    angle between the direction to p and the cone of emission normals, less the angle the node's bounding
+    sphere subtends; zero beyond pi/2, where no light emits) and of the cosine at the receiver.  Inside the
+    bounding sphere every direction is possible: both bounds are 1.  Nodes whose normals point everywhere
+    (cos theta_o = -1: points, spheres, mixed nodes) skip the cone bound.  Ten float32 fields a slot (ten
+    cache lines a block: the loads are the loop's cost, more than its arithmetic; `benchmarks/RESULTS.md`).
+    In float32, as the table is (sixteen lanes of one AVX-512 register; the choices need no more: float32
+    can zero a node that lights p only where its cosine bound is within ~1e-7 of 0, a share of its light of
+    that order), without branches (selects), and the number of slots read from the table, not a constant, so
+    that LLVM vectorises the loop instead of unrolling it."""
     nw = tf.shape[1] // TREE_COLS
     px, py, pz = np.float32(p[0]), np.float32(p[1]), np.float32(p[2])
     nx, ny, nz = np.float32(n[0]), np.float32(n[1]), np.float32(n[2])
@@ -120,8 +119,10 @@ def _enter(tf, block, p, n, w, pr):
     """Entering block `block`: its importances at p, n into w (`importances`) and, for each pair k of
     siblings (slots 2k and 2k + 1: the children of slot k - 1, the block root's for k = 0), the
     probability of the first, w[2k] / (w[2k] + w[2k + 1]) in double (as `light_pmf` computes it), into
-    pr[k] (NaN where both are 0: no child to take).  One loop over the pairs (LLVM vectorises it) instead of a division per binary step: a
-    walk's steps wait on each other, and each waited on its division."""
+    pr[k] (NaN where both are 0: no child to take).  One loop over the pairs (LLVM vectorises it)
+    instead of a division per binary step: a walk's steps wait on each other, and each waited on its
+    division (computing only the three pairs a walk takes, at its steps, measured slower: `benchmarks/
+    RESULTS.md`)."""
     importances(tf, block, p, n, w)
     for k in range(TREE_SLOTS // 2):
         a, b = np.float64(w[2 * k]), np.float64(w[2 * k + 1])
