@@ -84,13 +84,16 @@ def evaluate(mom, c1, c2, n):
     return v0 * c0 / (v * c), v / v0, c / c0
 
 
-def tile_rays(renderer, opts, depth, spp, tile_count):
-    """(all rays, secondary rays) per tile of one recorded render."""
+def tile_rays(renderer, opts, depth, spp, tile_count, by_kind):
+    """Rays per tile of one recorded render, and with `by_kind` its secondary rays too (else None).  The
+    record counts every ray whatever its room, so only a render whose kinds are read keeps the rays."""
     from rtc.renderer.host.render import RenderOptions
     from rtc.renderer.kernel.integrator import RAYS_SECONDARY
     from rtc.renderer.kernel.ray_record import new_ray_record
-    rec = new_ray_record(tile_count, 64 * spp * (4 * depth + 4))
+    rec = new_ray_record(tile_count, 64 * spp * 8 if by_kind else 1)
     renderer.render(RenderOptions(spp=spp, seed=1, max_depth=depth, **opts), ray_record=rec)
+    if not by_kind:
+        return rec.count.astype(float), None
     if (rec.count > rec.kind.shape[1]).any():
         raise SystemExit('ray record too small')
     return rec.count.astype(float), (rec.kind == RAYS_SECONDARY).sum(1).astype(float)
@@ -118,8 +121,8 @@ def main(argv=None) -> int:
     cont = imgs[depth] - imgs[1]
     neg = float((cont.sum(-1) < -1e-6 * max(imgs[depth].max(), 1e-30)).mean())
     nt = n_tiles(a.width, a.height)
-    all1, sec1 = tile_rays(r, opts, 1, a.spp, nt)
-    alld, _ = tile_rays(r, opts, depth, a.spp, nt)
+    all1, sec1 = tile_rays(r, opts, 1, a.spp, nt, True)
+    alld, _ = tile_rays(r, opts, depth, a.spp, nt, False)
     shape = (-(-a.height // TILE), -(-a.width // TILE))
     c1 = ((all1 - sec1) / a.spp).reshape(shape)                  # rays per tile and sample
     c2 = ((alld - all1 + sec1) / a.spp).reshape(shape)
