@@ -20,6 +20,7 @@ checks every kernel module).
 """
 from __future__ import annotations
 
+import os
 import threading
 import types as pytypes
 
@@ -27,9 +28,16 @@ import numba
 from numba.core.caching import FunctionCache
 from numba.core.registry import CPUDispatcher
 
+from .. import _kernel_cache_dir
 from .features import ALL, FEATURE_NAMES, Features
 
 _LOCK = threading.Lock()
+# This package's kernel cache (`rtc.renderer`), for the twins, which are made at render time: numba's
+# cache directory is one global setting, and a second copy of the renderer in the process (the A/B
+# harness's baseline, `benchmarks/ab_render.py`) sets it to its own when imported.  A twin cached in
+# the other copy's directory is found there again after an edit of a callee's file only (numba keys a
+# cached function on its own file), and an A/B then compared a stale kernel.
+_CACHE_DIR = _kernel_cache_dir()
 _TWINS: dict = {}              # (id of the general dispatcher, features key) -> twin dispatcher
 _DEPENDS: dict = {}            # id of a dispatcher -> whether it depends on a feature constant
 SHARED = 'shared'              # the key of the twins of functions that test no feature (every specialisation's)
@@ -81,9 +89,22 @@ def _twin(disp, consts: dict, key: str, entry: bool = False):
     options.update(no_cfunc_wrapper=True, **({} if entry else {'no_cpython_wrapper': True}))
     twin = numba.njit(**options)(fn)
     if isinstance(disp._cache, FunctionCache):
-        twin.enable_caching()
+        _enable_caching(twin)
     _TWINS[tk] = twin
     return twin
+
+
+def _enable_caching(twin) -> None:
+    """Cache `twin` in this package's directory (NUMBA_CACHE_DIR, when set, is every copy's)."""
+    if os.environ.get('NUMBA_CACHE_DIR'):
+        twin.enable_caching()
+        return
+    before = numba.core.config.CACHE_DIR
+    numba.core.config.CACHE_DIR = _CACHE_DIR
+    try:
+        twin.enable_caching()
+    finally:
+        numba.core.config.CACHE_DIR = before
 
 
 def specialize(entry, features: Features | None):
