@@ -49,10 +49,11 @@ from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_
 from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
                          _enqueue_shadow, _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
-from .light_sampling import escaped_emission, sample_ld, shape_emission, shape_mask
+from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params
 from .ray_record import record_if
+from .rect_lobe import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .shapes import hit_gprim
@@ -136,7 +137,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     if F_SURFACE_LIGHTS and k >= L.surface_first:
         wi, dist, Le, pdf, delta = sample_surface(S, L, tr, k, vtx.p, vtx.time, u[0], u[1])
     else:
-        wi, dist, Le, pdf, delta = sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
+        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, k, vtx, b, u)
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     fc, pb = evaluate_seen(b, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
@@ -296,7 +297,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
     T = (1.0, 1.0, 1.0)
     A = (1.0, 1.0, 1.0)
     es = 1.0                                # 1/eta^2 factors of the throughput, undone for roulette
-    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE)
+    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE, NO_LOBE)
     after = W_POWER if strategy == MIS else (W_ZERO if strategy == NEE_ONLY else W_ONE)
     depth = 0
     for v in range(max_depth + 1 + PASS_THROUGH_MAX):
@@ -352,7 +353,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         else:
             break
         T = (T[0] * w[0], T[1] * w[1], T[2] * w[2])
-        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after)
+        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, glossy_lobe(sb, (tt, bb, ns)))
         d = wi
         depth += 1
         if depth >= RR_DEPTH:

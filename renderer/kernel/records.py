@@ -32,7 +32,8 @@ Per path and bounce
                     direction to the viewer in that frame, shadow-ray origin, time, the path's throughput
                     and its lane in the camera packet (whose light a queued shadow ray adds to)
     PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
-                    and how the light it finds is weighted (power heuristic, 1, or 0)
+                    how the light it finds is weighted (power heuristic, 1, or 0), and its glossy lobe
+                    (`rect_lobe.glossy_lobe`: the rect lights' light samples drew towards it)
     Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
 """
 from collections import namedtuple
@@ -52,5 +53,5 @@ Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v',
 ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks'])
 PathState = namedtuple('PathState', ['L', 'T', 'A'])
 Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time', 'T', 'lane'])
-PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode'])
+PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode', 'lobe'])
 Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])

@@ -254,7 +254,7 @@ def surface_emission(S, L, tr, Le, hit, prev):
     k = light_of_hit(S, L, tr.u)
     if k < 0:
         return Le
-    p0, n0, pb, mode = prev
+    p0, n0, pb, mode = prev[0], prev[1], prev[2], prev[3]
     if mode == 2:
         return ZERO
     if mode == 1:

@@ -1,0 +1,153 @@
+"""A rect light's samples drawn towards a glossy vertex's GGX lobe (`kernel/rect_lobe.py`,
+`light_sampling.sample_ld_lobe`): the truncated Cauchy distributions are sampled as their density says,
+however far their centre lies outside the rect; the mixture's pdf is a density over the light's solid
+angle (E[1 / pdf] = the rect's solid angle, computed here by Van Oosterom and Strackee's formula); and a
+BSDF-sampled ray that meets the light is weighed by the same pdf as the light sample that drew its point
+(`rect_lobe.mixture_pdf`, used by `shape_emission`)."""
+import math
+
+import numpy as np
+import pytest
+
+from rtc.renderer import description as D
+from rtc.renderer.host.build import build
+from rtc.renderer.host.light_selection import path_lights
+from rtc.renderer.kernel import rect_lobe as R
+from rtc.renderer.kernel.bsdf import preview_bsdf, seen_from
+from rtc.renderer.kernel.light_sampling import _plane, hit_shape, sample_ld_lobe
+from rtc.renderer.kernel.records import Vertex
+from rtc.renderer.kernel.tables import LF_H, LF_M, LF_W
+from tests.renderer.handmade import look_at, quad, rect_light, scene
+
+CENTRE = np.array([0.0, 3.0, -5.0])            # the rect light (2 x 1, emitting along -Y)
+W, H = 2.0, 1.0
+
+
+@pytest.mark.parametrize('x0, s, half', [(0.3, 0.05, 1.0), (5.0, 0.02, 1.0), (0.0, 1e-3, 1.0), (0.9, 1e-4, 1.0),
+                                         (1e6, 0.01, 0.5), (-1e9, 1e-3, 0.5), (-0.2, 3.0, 1.0)])
+def test_the_truncated_cauchy_is_sampled_as_its_density_says(x0, s, half):
+    """The samples' CDF at five points, and the density there, equal those of g(x) = 1 / (1 + ((x - x0) / s)^2)
+    normalised over [-half, half] by the trapezoid rule on a grid dense where g varies (not by the arctangents
+    `rect_lobe` uses)."""
+    cw = R._cauchy.py_func(x0, s, half)
+    u = (np.arange(20000) + 0.5) / 20000
+    xs = np.array([R.cauchy_sample.py_func(cw, v) for v in u])
+    assert xs.min() >= -half and xs.max() <= half
+    grid = np.linspace(-half, half, 400001)
+    near = x0 + s * np.tan(np.linspace(-1.55, 1.55, 200001))
+    grid = np.unique(np.concatenate([grid, near[(near > -half) & (near < half)]]))
+    g = 1.0 / (1.0 + ((grid - x0) / s) ** 2)
+    cum = np.concatenate([[0.0], np.cumsum(0.5 * (g[1:] + g[:-1]) * np.diff(grid))])
+    total = cum[-1]
+    for m in np.linspace(-0.8, 0.8, 5) * half:
+        assert (xs < m).mean() == pytest.approx(np.interp(m, grid, cum) / total, abs=2e-4), m
+        dens = 1.0 / (1.0 + ((m - x0) / s) ** 2) / total
+        assert R.cauchy_pdf.py_func(cw, m) == pytest.approx(dens, rel=1e-4), m
+
+
+def solid_angle(p, corners):
+    """Solid angle of the planar quad `corners` seen from p: two triangles by Van Oosterom and Strackee."""
+    total = 0.0
+    for tri in ((0, 1, 2), (0, 2, 3)):
+        r = [np.asarray(corners[i]) - p for i in tri]
+        n = [np.linalg.norm(v) for v in r]
+        num = abs(np.dot(r[0], np.cross(r[1], r[2])))
+        den = n[0] * n[1] * n[2] + np.dot(r[0], r[1]) * n[2] + np.dot(r[0], r[2]) * n[1] + np.dot(r[1], r[2]) * n[0]
+        total += 2.0 * math.atan2(num, den)
+    return total
+
+
+@pytest.fixture(scope='module')
+def lit():
+    desc = scene([D.Container('/', meshes=[quad(20.0)])], [D.Material('/m')], [rect_light(tuple(CENTRE), W, H, (5.0,) * 3)],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 2.0, 6.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+    try:
+        yield built.data, L
+    finally:
+        built.close()
+
+
+def vertex(S, p_world, aim_world, alpha, metallic):
+    """(Vertex, Seen) of a floor point (normal +Y) whose GGX lobe's mirror direction points at aim_world, in
+    the kernels' camera-relative frame (the light's centre read back from its table row)."""
+    shift = np.array([S.li_f[0, LF_M + 3], S.li_f[0, LF_M + 7], S.li_f[0, LF_M + 11]]) - CENTRE
+    p = np.asarray(p_world, np.float64) + shift
+    r = np.asarray(aim_world, np.float64) - np.asarray(p_world, np.float64)
+    r /= np.linalg.norm(r)
+    n = np.array([0.0, 1.0, 0.0])
+    wo = 2.0 * np.dot(r, n) * n - r                        # r mirrored about n
+    tt, bb = (1.0, 0.0, 0.0), (0.0, 0.0, -1.0)              # (tt, bb, n) right-handed
+    wl = (float(np.dot(wo, tt)), float(np.dot(wo, bb)), float(wo[1]))
+    diff = (0.0, 0.0, 0.0) if metallic else (0.5, 0.5, 0.5)
+    f0 = (0.9, 0.7, 0.3) if metallic else (0.04, 0.04, 0.04)
+    b = preview_bsdf(diff, f0, (1.0, 1.0, 1.0), alpha, 0.0, 1e-6)
+    pt = tuple(float(x) for x in p)
+    vtx = Vertex(pt, (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), tt, bb, wl, pt, 0.0, (1.0, 1.0, 1.0), 0)
+    return vtx, seen_from(b, wl), shift
+
+
+CASES = {           # (floor point, where the lobe's mirror direction aims, alpha, metallic)
+    'inside, near': ((0.3, 0.0, -4.0), (0.2, 3.0, -5.1), 0.0225, True),
+    'edge, near': ((0.3, 0.0, -4.0), (1.0, 3.0, -5.2), 0.0225, True),
+    'edge, plastic': ((0.3, 0.0, -4.0), (-0.3, 3.0, -4.5), 0.01, False),
+    'far outside': ((0.3, 0.0, -4.0), (9.0, 3.0, -5.0), 0.0625, True),
+    'edge, far from the light': ((1.0, 0.0, 9.0), (-1.0, 3.0, -5.45), 0.0225, True),
+    'rough, far': ((-3.0, 0.0, 6.0), (0.0, 3.0, -5.0), 0.25, False),
+}
+
+
+@pytest.mark.parametrize('case', CASES)
+def test_the_mixture_pdf_is_a_density_over_the_lights_solid_angle(lit, case):
+    """E[1 / pdf] over stratified samples equals the rect's solid angle (an independent formula): the pdf
+    that weighs the light sample is the density it is drawn from (a wrong one biases the light)."""
+    S, L = lit
+    p_world, aim, alpha, metallic = CASES[case]
+    vtx, sb, shift = vertex(S, p_world, aim, alpha, metallic)
+    lobe = R.glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))
+    assert lobe[4] > 0.0 and lobe[3] == pytest.approx(2 * alpha)
+    n = 160
+    inv = []
+    for i in range(n):
+        for j in range(n):
+            wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, sb, ((i + 0.5) / n, (j + 0.5) / n))
+            assert pdf > 0.0 and not delta
+            inv.append(1.0 / pdf)
+    c = CENTRE
+    corners = [c + (-W / 2, 0, -H / 2), c + (W / 2, 0, -H / 2), c + (W / 2, 0, H / 2), c + (-W / 2, 0, H / 2)]
+    omega = solid_angle(np.asarray(p_world, np.float64), corners)
+    assert np.mean(inv) == pytest.approx(omega, rel=0.01), (case, np.mean(inv), omega)
+
+
+@pytest.mark.parametrize('case', CASES)
+def test_a_bsdf_ray_meeting_the_light_is_weighed_by_the_light_samples_pdf(lit, case):
+    """For each light sample, a ray from the vertex along its direction meets the light (`hit_shape`) at
+    its point, and `mixture_pdf` there equals the sample's pdf: the two strategies' MIS weights sum to 1."""
+    S, L = lit
+    p_world, aim, alpha, metallic = CASES[case]
+    vtx, sb, _ = vertex(S, p_world, aim, alpha, metallic)
+    lobe = R.glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))
+    rect = (_plane(S.li_f, 0), S.li_f[0, LF_W], S.li_f[0, LF_H])
+    rng = np.random.default_rng(5)
+    lobe_drawn = 0
+    for u in rng.random((300, 2)):
+        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, sb, (float(u[0]), float(u[1])))
+        t, pu = hit_shape(S, 0, vtx.p, wi, math.inf, vtx.p)
+        assert t == pytest.approx(dist, rel=1e-9)
+        q = tuple(vtx.p[i] + t * wi[i] for i in range(3))
+        assert R.mixture_pdf(vtx.p, lobe, rect, pu, q) == pytest.approx(pdf, rel=1e-7)
+        lobe_drawn += u[0] < lobe[4]
+    assert lobe_drawn > 0
+
+
+def test_no_lobe_no_change(lit):
+    """A Lambert vertex, or a GGX lobe wider than LOBE_ALPHA_MAX, has no lobe strategy: its light samples
+    are `sample_ld`'s."""
+    S, L = lit
+    from rtc.renderer.kernel.light_sampling import sample_ld
+    for alpha, metallic in ((0.3, False), (1.0, True)):
+        vtx, sb, _ = vertex(S, (0.3, 0.0, -4.0), (0.2, 3.0, -5.1), alpha, metallic)
+        assert R.glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))[4] == 0.0
+        for u in ((0.1, 0.2), (0.7, 0.9)):
+            assert sample_ld_lobe(S, L, 0, vtx, sb, u) == sample_ld(S, L, 0, vtx.p, vtx.ns, u[0], u[1])
