@@ -34,7 +34,7 @@ from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE
 from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
-from .rect_lobe import cauchy_sample, glossy_lobe, lobe_area_pdf, lobe_window, mixture_pdf, rect_coords
+from .rect_lobe import NO_WINDOW, cauchy_sample, glossy_lobe, lobe_area_pdf, lobe_pdf, lobe_window
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
@@ -166,50 +166,27 @@ def sample_ld(S, L, k, p, n, u1, u2):
 @nb.njit(**_JIT)
 def sample_ld_lobe(S, L, k, vtx, sb, u):
     """`sample_ld` of light k seen from path vertex vtx (its BSDF seen from its wo: sb) for the sample
-    u = (u1, u2), where a rect light seen from a vertex with a narrow GGX lobe (`rect_lobe.glossy_lobe`, of
-    probability beta > 0) is drawn from the mixture (1 - beta) uniform (`sample_ld`) + beta towards the
-    lobe (`rect_lobe`), u1 choosing the strategy and rescaled; pdf: the mixture's (`rect_lobe.mixture_pdf`
-    gives the same for a BSDF ray that meets the light)."""
-    u1, u2 = u
+    u = (u1, u2); a rect light seen from a vertex whose light samples follow its GGX lobe
+    (`rect_lobe.glossy_lobe`) is drawn towards that lobe (`rect_lobe`), with the pdf that
+    `rect_lobe.lobe_pdf` gives a BSDF ray that meets the light."""
     if not (F_LIGHTS & B_PLANAR and S.li_type[k] == D.RECT):
-        return sample_ld(S, L, k, vtx.p, vtx.ns, u1, u2)
+        return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     lobe = glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))
-    beta = lobe[4]
-    if not beta > 0.0:
-        return sample_ld(S, L, k, vtx.p, vtx.ns, u1, u2)
     lf = S.li_f
     plane = _plane(lf, k)
-    c, ex, ey, nrm = plane
-    win = lobe_window(vtx.p, lobe, plane, lf[k, LF_W], lf[k, LF_H])
+    win = lobe_window(vtx.p, lobe, plane, lf[k, LF_W], lf[k, LF_H]) if lobe[4] > 0.0 else NO_WINDOW
     if not win[0]:
-        return sample_ld(S, L, k, vtx.p, vtx.ns, u1, u2)
-    Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
-    w, h = lf[k, LF_W], lf[k, LF_H]
-    sr = near_rect(vtx.p, c, ex, ey, nrm, w, h)
-    if u1 < beta:
-        a = cauchy_sample(win[1], u1 / beta)
-        b = cauchy_sample(win[2], u2)
-        q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
-        wi, dist, d2 = toward(vtx.p, q)
-    else:
-        u1 = min((u1 - beta) / (1.0 - beta), 0.99999994)
-        if sr[0] > 0.0:
-            wi, dist, Le, pdf, delta = _spherical_rect_ld(vtx.p, sr, (ex, ey, nrm), (w, h), (u1, u2), Lr)
-            if not pdf > 0.0:
-                return NONE
-            q = (vtx.p[0] + dist * wi[0], vtx.p[1] + dist * wi[1], vtx.p[2] + dist * wi[2])
-            a, b = rect_coords(q, c, ex, ey, nrm)
-        else:
-            a = (u1 - 0.5) * w
-            b = (u2 - 0.5) * h
-            q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
-            wi, dist, d2 = toward(vtx.p, q)
-        d2 = dist * dist
+        return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
+    c, ex, ey, nrm = plane
+    a = cauchy_sample(win[1], u[0])
+    b = cauchy_sample(win[2], u[1])
+    q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
+    wi, dist, d2 = toward(vtx.p, q)
     cos_l = dot(wi, nrm)
     if not (d2 > 0.0 and cos_l > 0.0):
         return NONE
-    pu = 1.0 / sr[0] if sr[0] > 0.0 else d2 / (cos_l * lf[k, LF_AREA])
-    return wi, dist, Lr, (1.0 - beta) * pu + beta * lobe_area_pdf(win, a, b) * d2 / cos_l, False
+    Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
+    return wi, dist, Lr, lobe_area_pdf(win, a, b) * d2 / cos_l, False
 
 
 @nb.njit(**_JIT)
@@ -551,8 +528,8 @@ def shape_emission(S, L, k, ray, te, prev):
     if t < 0.0 or abs(t - te) > hit_tolerance(o, te):
         return ZERO
     if F_LIGHTS & B_PLANAR and mode == 0 and lobe[4] > 0.0 and S.li_type[k] == D.RECT:
-        pl = mixture_pdf(p0, lobe, (_plane(S.li_f, k), S.li_f[k, LF_W], S.li_f[k, LF_H]), pl,
-                         (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
+        pl = lobe_pdf(p0, lobe, (_plane(S.li_f, k), S.li_f[k, LF_W], S.li_f[k, LF_H]), pl,
+                      (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
     return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
 
