@@ -2,7 +2,7 @@
 lat-long image, texels weighted by luminance x sin(theta) (the solid angle of a row), as one
 marginal CDF over rows and one conditional CDF per row (pbrt's Distribution2D; Pharr et al.,
 "Physically Based Rendering", 4th ed., 2023, sec. A.5), flattened into one float64 array.
-Sampled by `kernel/light_sampling.sample_dome_texture`.
+Sampled by `kernel/dome_sampling.sample_dome_texture`.
 
 A texel's weight is the mean, over the texel, of what the kernels see: the bilinear interpolation of the
 image (`kernel/textures.sample_texture`), with the texture's wrap modes.  That is the image filtered by

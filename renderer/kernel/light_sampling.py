@@ -11,7 +11,9 @@ al. 2013, pdf = 1 / S; by area when S is tiny or nearly 2 pi), disk and the side
 (uniform by area: pdf = d^2 / (cos_l A)),
 sphere (uniform in the cone it subtends, exact), distant with an angle (uniform in its cone: radiance
 E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
-`host/dome_sampling.py`; cosine-weighted about n when untextured).  Emissive surfaces are sampled by
+`dome_sampling.py`; cosine-weighted about n when untextured).  From a vertex whose narrow GGX lobe carries
+most of its albedo, rect and disk lights are drawn towards the lobe instead (`sample_ld_lobe`,
+`lobe_sampling.py`), and a BSDF ray from it that meets one is weighed by that strategy's pdf.  Emissive surfaces are sampled by
 `surface_lights.sample_surface` (which `path.light_sample` calls for them: a moving one needs the
 ray's time and Embree's matrix at it).  Rects and disks emit from their front (local -Z) only,
 spheres and cylinders outwards (a cylinder from its side, not its caps: points facing away from the
@@ -31,10 +33,12 @@ import numba as nb
 
 from .. import description as D
 from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
+from .dome_sampling import dome_pdf, sample_dome_texture
 from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
-from .rect_lobe import NO_WINDOW, cauchy_sample, glossy_lobe, lobe_area_pdf, lobe_pdf, lobe_window
+from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, glossy_lobe, lobe_area_pdf, lobe_pdf, lobe_window,
+                            round_window)
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
@@ -164,27 +168,47 @@ def sample_ld(S, L, k, p, n, u1, u2):
 
 
 @nb.njit(**_JIT)
+def _lobe_light(S, k):
+    """True if light k's samples can follow a glossy lobe (`lobe_sampling`): a rect or disk light."""
+    return F_LIGHTS & B_PLANAR and (S.li_type[k] == D.RECT or S.li_type[k] == D.DISK)
+
+
+@nb.njit(**_JIT)
+def light_window(S, k, p, lobe):
+    """(window, plane, radius or inf) of the lobe strategy of light k seen from p (`lobe_sampling`): its point
+    q = c + a ex + b ey of plane (c, ex, ey, nrm), inside the disk of that radius; NO_WINDOW where it is not
+    used."""
+    lf = S.li_f
+    if not (lobe[4] > 0.0 and _lobe_light(S, k)):
+        return NO_WINDOW, NO_PLANE, INF
+    plane = _plane(lf, k)
+    if S.li_type[k] == D.RECT:
+        return lobe_window(p, lobe, plane, lf[k, LF_W], lf[k, LF_H]), plane, INF
+    return round_window(p, lobe, plane, lf[k, LF_RADIUS]), plane, lf[k, LF_RADIUS]
+
+
+@nb.njit(**_JIT)
 def sample_ld_lobe(S, L, k, vtx, sb, u):
     """`sample_ld` of light k seen from path vertex vtx (its BSDF seen from its wo: sb) for the sample
-    u = (u1, u2); a rect light seen from a vertex whose light samples follow its GGX lobe
-    (`rect_lobe.glossy_lobe`) is drawn towards that lobe (`rect_lobe`), with the pdf that
-    `rect_lobe.lobe_pdf` gives a BSDF ray that meets the light."""
-    if not (F_LIGHTS & B_PLANAR and S.li_type[k] == D.RECT):
+    u = (u1, u2); a rect or disk light seen from a vertex whose light samples follow its GGX lobe
+    (`lobe_sampling.glossy_lobe`) is drawn towards that lobe (`lobe_sampling`; none where the point falls
+    outside a disk), with the pdf that `lobe_sampling.lobe_pdf` gives a BSDF ray that meets the light."""
+    if not _lobe_light(S, k):
         return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
-    lobe = glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))
-    lf = S.li_f
-    plane = _plane(lf, k)
-    win = lobe_window(vtx.p, lobe, plane, lf[k, LF_W], lf[k, LF_H]) if lobe[4] > 0.0 else NO_WINDOW
+    win, plane, lim = light_window(S, k, vtx.p, glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns)))
     if not win[0]:
         return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     c, ex, ey, nrm = plane
     a = cauchy_sample(win[1], u[0])
     b = cauchy_sample(win[2], u[1])
+    if a * a + b * b > lim * lim:
+        return NONE
     q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
     wi, dist, d2 = toward(vtx.p, q)
     cos_l = dot(wi, nrm)
     if not (d2 > 0.0 and cos_l > 0.0):
         return NONE
+    lf = S.li_f
     Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
     return wi, dist, Lr, lobe_area_pdf(win, a, b) * d2 / cos_l, False
 
@@ -312,82 +336,6 @@ def area_ld(p, q, nq, area, Lr):
 
 
 # ----------------------------------------------------------------------------- dome tables
-@nb.njit(**_JIT)
-def _search(cdf, lo, n, u):
-    """Largest i in [0, n) with cdf[lo + i] <= u (cdf[lo] = 0, cdf[lo + n] = 1)."""
-    a = 0
-    b = n
-    while b - a > 1:
-        m = (a + b) // 2
-        if cdf[lo + m] <= u:
-            a = m
-        else:
-            b = m
-    return a
-
-
-@nb.njit(**_JIT)
-def _dome_frame(S, k):
-    lf = S.li_f
-    return normalize(_col(lf, k, 0)), normalize(_col(lf, k, 1)), normalize(_col(lf, k, 2))
-
-
-@nb.njit(**_JIT)
-def sample_dome_texture(S, L, k, u1, u2):
-    """(world direction, solid-angle pdf) from the piecewise-constant distribution of the dome's
-    lat-long image (texels weighted by luminance x sin(theta)); rows = latitude, top row = +Y."""
-    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
-    y = _search(L.dome_cdf, moff, h, u2)
-    m0 = L.dome_cdf[moff + y]
-    pm = L.dome_cdf[moff + y + 1] - m0
-    if not pm > 0.0:
-        return (0.0, 0.0, 1.0), 0.0
-    fy = (u2 - m0) / pm
-    row = coff + y * (w + 1)
-    x = _search(L.dome_cdf, row, w, u1)
-    c0 = L.dome_cdf[row + x]
-    pc = L.dome_cdf[row + x + 1] - c0
-    if not pc > 0.0:
-        return (0.0, 0.0, 1.0), 0.0
-    fx = (u1 - c0) / pc
-    s = (x + fx) / w
-    v = (y + fy) / h
-    lat = (0.5 - v) * math.pi
-    lon = (0.5 - s) * 2.0 * math.pi
-    cl = math.cos(lat)
-    if cl <= 0.0:
-        return (0.0, 0.0, 1.0), 0.0
-    loc = (cl * math.sin(lon), math.sin(lat), cl * math.cos(lon))
-    ax, ay, az = _dome_frame(S, k)
-    wd = (loc[0] * ax[0] + loc[1] * ay[0] + loc[2] * az[0], loc[0] * ax[1] + loc[1] * ay[1] + loc[2] * az[1],
-          loc[0] * ax[2] + loc[1] * ay[2] + loc[2] * az[2])
-    return wd, pm * pc * w * h / (2.0 * math.pi * math.pi * cl)
-
-
-@nb.njit(**_JIT)
-def dome_pdf(S, L, k, wd, n):
-    """Solid-angle pdf with which `sample_ld` draws world direction wd for dome k (n: shading normal
-    of the vertex, for an untextured dome)."""
-    if not F_DOME_TEXTURE or L.dome_i[k, 0] < 0:
-        c = dot(wd, n)
-        return c / math.pi if c > 0.0 else 0.0
-    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
-    ax, ay, az = _dome_frame(S, k)
-    loc = (dot(wd, ax), dot(wd, ay), dot(wd, az))
-    lat = math.asin(max(-1.0, min(1.0, loc[1])))
-    cl = math.cos(lat)
-    if cl <= 0.0:
-        return 0.0
-    s = 0.5 - math.atan2(loc[0], loc[2]) / (2.0 * math.pi)
-    v = 0.5 - lat / math.pi
-    x = min(max(int(s * w), 0), w - 1)
-    y = min(max(int(v * h), 0), h - 1)
-    pm = L.dome_cdf[moff + y + 1] - L.dome_cdf[moff + y]
-    row = coff + y * (w + 1)
-    pc = L.dome_cdf[row + x + 1] - L.dome_cdf[row + x]
-    return pm * pc * w * h / (2.0 * math.pi * math.pi * cl)
-
-
 # ----------------------------------------------------------------------------- what BSDF rays find
 @nb.njit(**_JIT)
 def _power(a, b):
@@ -519,7 +467,7 @@ def shape_emission(S, L, k, ray, te, prev):
     a second hit of the same point; a cylinder's side, not the capsule's round caps).  prev = (p0, n0,
     bsdf pdf, mis mode, lobe): the vertex the ray left, its normal, the pdf with which its BSDF drew d,
     0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe, or BSDF sampling alone),
-    2 = weight 0 (next-event estimation alone), and its `rect_lobe.glossy_lobe` (`sample_ld_lobe`)."""
+    2 = weight 0 (next-event estimation alone), and its `lobe_sampling.glossy_lobe` (`sample_ld_lobe`)."""
     o, d = ray
     p0, n0, pb, mode, lobe = prev
     if mode == 2:
@@ -527,9 +475,10 @@ def shape_emission(S, L, k, ray, te, prev):
     t, pl = hit_shape(S, k, o, d, INF, p0)
     if t < 0.0 or abs(t - te) > hit_tolerance(o, te):
         return ZERO
-    if F_LIGHTS & B_PLANAR and mode == 0 and lobe[4] > 0.0 and S.li_type[k] == D.RECT:
-        pl = lobe_pdf(p0, lobe, (_plane(S.li_f, k), S.li_f[k, LF_W], S.li_f[k, LF_H]), pl,
-                      (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
+    if mode == 0 and lobe[4] > 0.0:
+        win, plane, lim = light_window(S, k, p0, lobe)
+        if win[0]:
+            pl = lobe_pdf(win, plane, lim, p0, (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
     return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
 

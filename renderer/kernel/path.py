@@ -53,7 +53,7 @@ from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, sh
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params
 from .ray_record import record_if
-from .rect_lobe import NO_LOBE, glossy_lobe
+from .lobe_sampling import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .shapes import hit_gprim

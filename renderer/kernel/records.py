@@ -33,7 +33,7 @@ Per path and bounce
                     and its lane in the camera packet (whose light a queued shadow ray adds to)
     PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
                     how the light it finds is weighted (power heuristic, 1, or 0), and its glossy lobe
-                    (`rect_lobe.glossy_lobe`: the rect lights' light samples drew towards it)
+                    (`lobe_sampling.glossy_lobe`: the lights' light samples drew towards it)
     Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
 """
 from collections import namedtuple

@@ -1,5 +1,6 @@
 """The path integrator's three estimators of direct light on a glossy scene (GGX gold, roughness 0.08,
-and GGX plastic, roughness 0.35, under a small bright and a large dim rect light): light sampling
+and GGX plastic, roughness 0.35, under a small bright and a large dim rect light; the small one a disk in a
+second scene, whose light samples the gold draws towards its lobe, `kernel/lobe_sampling.py`): light sampling
 alone, BSDF sampling alone and their combination by MIS converge to the same image (image means
 within 1 %), and at equal samples MIS has the lowest error against the converged image."""
 import numpy as np
@@ -10,20 +11,22 @@ from rtc.renderer.host.render import RenderOptions, Renderer
 from tests.renderer.handmade import look_at, quad, rect_light, scene
 
 
-def glossy_scene():
+def glossy_scene(small='rect'):
     gold = D.Material('/gold', diffuse=(1.0, 0.78, 0.34), metallic=1.0, roughness=0.08 ** 0.5)
     plastic = D.Material('/plastic', diffuse=(0.1, 0.2, 0.6), roughness=0.35 ** 0.5)
     left = quad(3.0, material=0, path='/left', center=(-1.5, 0.0))
     right = quad(3.0, material=1, path='/right', center=(1.5, 0.0))
     lights = [rect_light((0.0, 2.0, -1.0), 0.4, 0.4, (40.0,) * 3), rect_light((0.0, 4.0, 0.0), 6.0, 6.0, (0.3,) * 3)]
+    if small == 'disk':
+        lights[0] = D.Light(path='/disk', type=D.DISK, matrix=lights[0].matrix, radiance=(8.0,) * 3, radius=0.5)
     cam = D.Camera(path='/cam', matrix=look_at((0.0, 1.5, 4.0), (0.0, 0.0, 0.5)))
     return scene([D.Container('/', meshes=[left, right])], [gold, plastic], lights, cam, width=48, height=36)
 
 
-@pytest.fixture(scope='module')
-def renders():
+@pytest.fixture(scope='module', params=['rect', 'disk'])
+def renders(request):
     out = {}
-    with Renderer(glossy_scene()) as r:
+    with Renderer(glossy_scene(request.param)) as r:
         for strategy in ('mis', 'nee', 'bsdf'):
             conv = [r.render(RenderOptions(spp=1024 if strategy == 'bsdf' else 256, seed=100 + s, integrator='path', max_depth=1, strategy=strategy,
                                            sampler='independent')).image.astype(np.float64) for s in range(4)]
