@@ -335,7 +335,6 @@ def area_ld(p, q, nq, area, Lr):
     return wi, d, Lr, d2 / (cos_l * area), False
 
 
-# ----------------------------------------------------------------------------- dome tables
 # ----------------------------------------------------------------------------- what BSDF rays find
 @nb.njit(**_JIT)
 def _power(a, b):
