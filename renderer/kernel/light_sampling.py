@@ -13,10 +13,10 @@ sphere (uniform in the cone it subtends, exact), distant with an angle (uniform 
 E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
 `dome_sampling.py`; cosine-weighted about n when untextured).  From a vertex whose narrow GGX lobe carries
 most of its albedo, rect and disk lights are drawn towards the lobe instead (`sample_ld_lobe`,
-`lobe_sampling.py`), and a BSDF ray from it that meets one is weighed by that strategy's pdf.  Emissive surfaces are sampled by
-`surface_lights.sample_surface` (which `path.light_sample` calls for them: a moving one needs the
-ray's time and Embree's matrix at it).  Rects and disks emit from their front (local -Z) only,
-spheres and cylinders outwards (a cylinder from its side, not its caps: points facing away from the
+`lobe_sampling.py`), and a BSDF ray from it that meets one is weighed by that strategy's pdf.
+Emissive surfaces are sampled by `surface_lights.sample_surface` (which `path.light_sample` calls for
+them: a moving one needs the ray's time and Embree's matrix at it).  Rects and disks emit from their
+front (local -Z) only, spheres and cylinders outwards (a cylinder from its side, not its caps: points facing away from the
 receiver are drawn and contribute nothing), emissive surfaces from both sides.  Light shapes occlude
 nothing (shadow rays do not meet them: ray masks), and a ray collects the emission of every light
 shape it crosses before the surface it hits (`shape_emission`, `path.find_surface`).  Every ray
@@ -37,7 +37,7 @@ from .dome_sampling import dome_pdf, sample_dome_texture
 from .light_tree import light_pmf
 from .lights import cylinder_point, dome_radiance
 from .jit import SHADING_INLINE_JIT as _JIT
-from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, glossy_lobe, lobe_area_pdf, lobe_pdf, lobe_window,
+from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, lobe_area_pdf, lobe_pdf, lobe_window,
                             round_window)
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
@@ -188,14 +188,14 @@ def light_window(S, k, p, lobe):
 
 
 @nb.njit(**_JIT)
-def sample_ld_lobe(S, L, k, vtx, sb, u):
-    """`sample_ld` of light k seen from path vertex vtx (its BSDF seen from its wo: sb) for the sample
-    u = (u1, u2); a rect or disk light seen from a vertex whose light samples follow its GGX lobe
-    (`lobe_sampling.glossy_lobe`) is drawn towards that lobe (`lobe_sampling`; none where the point falls
+def sample_ld_lobe(S, L, k, vtx, u):
+    """`sample_ld` of light k seen from path vertex vtx for the sample u = (u1, u2); a rect or disk light
+    seen from a vertex whose light samples follow its GGX lobe (vtx.lobe: `lobe_sampling.glossy_lobe`)
+    is drawn towards that lobe (`lobe_sampling`; none where the point falls
     outside a disk), with the pdf that `lobe_sampling.lobe_pdf` gives a BSDF ray that meets the light."""
     if not _lobe_light(S, k):
         return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
-    win, plane, lim = light_window(S, k, vtx.p, glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns)))
+    win, plane, lim = light_window(S, k, vtx.p, vtx.lobe)
     if not win[0]:
         return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     c, ex, ey, nrm = plane

@@ -18,14 +18,14 @@ under-samples the lobe's tail).  Its density is positive over the whole rect, in
 cancellation however far the lobe's point lies outside the rect.
 
 A disk light is drawn the same way over its bounding square; a point of the square outside the disk is a
-sample of no light (the density is a sub-probability over the disk: unbiased, and the BSDF ray that meets
-the light gets the same density).  Those samples are lost, up to 1 - pi/4 of them where the density is flat
-over the square: a disk takes this strategy only where the lobe's footprint is narrower than the disk
-(both Cauchy scales below LOBE_NARROW times its radius) and meets it (LOBE_REACH).  Sphere lights keep their uniform cone: the same
-strategy on the plane across the cone's axis (a direction w + a tt + b bb, its density the plane's times
-cos^3) was measured and not kept (no gain in relative RMSE on two scenes of metals under a sphere light,
-1.07-1.17x the time; benchmarks/RESULTS.md): a sphere light's cone is narrow beside its distance, so a
-lobe rarely sees it much wider than itself.
+sample of no light (the density is a sub-probability over the disk: unbiased, and the BSDF ray that meets the
+light gets the same density).  Those samples are lost, up to 1 - pi/4 of them where the density is flat over
+the square: a disk takes this strategy only where the lobe's footprint is narrower than the disk (both Cauchy
+scales below LOBE_NARROW times its radius) and meets it (LOBE_REACH).  Sphere lights keep their uniform cone:
+the same strategy on the plane across the cone's axis (a direction w + a tt + b bb, its density the plane's
+times cos^3) was measured and not kept (no gain in relative RMSE on two scenes of metals under a sphere light,
+1.07-1.17x the time; benchmarks/RESULTS.md): a sphere light's cone is narrow beside its distance, so a lobe
+rarely sees it much wider than itself.
 
 A vertex whose GGX lobe carries most of its albedo (`glossy_lobe`: a metal, a mirror-like coat) draws its
 lights' samples this way instead of uniformly, and a BSDF-sampled ray from it that meets the light is

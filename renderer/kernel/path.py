@@ -44,7 +44,7 @@ from .. import description as D
 from .bsdf import BLACK, course_bsdf, evaluate_seen, is_delta, preview_bsdf, sample_seen, seen_from
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
-from .features import (B_COOL_TO_WARM, B_COURSE_MODELS, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
+from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
 from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
                          _enqueue_shadow, _flush_shadows, _shading_point)
@@ -137,7 +137,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     if F_SURFACE_LIGHTS and k >= L.surface_first:
         wi, dist, Le, pdf, delta = sample_surface(S, L, tr, k, vtx.p, vtx.time, u[0], u[1])
     else:
-        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, k, vtx, b, u)
+        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, k, vtx, u)
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     fc, pb = evaluate_seen(b, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
@@ -324,13 +324,13 @@ def trace_path(S, L, tr, pp, path, ray, packet):
             break
         b = vertex_bsdf(S, sp)
         tt, bb = onb(ns)
-        wo = (-d[0], -d[1], -d[2])
-        wl = (dot(wo, tt), dot(wo, bb), dot(wo, ns))
+        wl = (-dot(d, tt), -dot(d, bb), -dot(d, ns))                 # wo in the shading frame
         po = _origin(p, ng, osc)
         sb = seen_from(b, wl)
+        lobe = glossy_lobe(sb, (tt, bb, ns))
         if strategy != BSDF_ONLY and n_lights > 0 and not is_delta(b):
-            Lo = _add(Lo, T, next_event(S, L, tr, key, v, Vertex(p, ng, ns, tt, bb, wl, po, time, T, path.lane),
-                                                     sb, strategy))
+            Lo = _add(Lo, T, next_event(S, L, tr, key, v, Vertex(p, ng, ns, tt, bb, wl, po, time, T, path.lane, lobe),
+                                        sb, strategy))
         u1, u2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_BSDF))
         il, w, pdf, delta = sample_seen(sb, ul, u1, u2)
         if w[0] == 0.0 and w[1] == 0.0 and w[2] == 0.0:
@@ -353,7 +353,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         else:
             break
         T = (T[0] * w[0], T[1] * w[1], T[2] * w[2])
-        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, glossy_lobe(sb, (tt, bb, ns)))
+        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, lobe)
         d = wi
         depth += 1
         if depth >= RR_DEPTH:

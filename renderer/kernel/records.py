@@ -29,8 +29,9 @@ Per path and bounce
                     to the viewer and the material's (textured) colours
     PathState       radiance gathered so far, throughput, and the Beer attenuation of the current medium
     Vertex          a path vertex as next-event estimation needs it (path): position, normals, shading frame,
-                    direction to the viewer in that frame, shadow-ray origin, time, the path's throughput
-                    and its lane in the camera packet (whose light a queued shadow ray adds to)
+                    direction to the viewer in that frame, shadow-ray origin, time, the path's throughput,
+                    its lane in the camera packet (whose light a queued shadow ray adds to) and its glossy
+                    lobe (`lobe_sampling.glossy_lobe`, which rect and disk light samples follow)
     PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
                     how the light it finds is weighted (power heuristic, 1, or 0), and its glossy lobe
                     (`lobe_sampling.glossy_lobe`: the lights' light samples drew towards it)
@@ -52,6 +53,6 @@ Ray = namedtuple('Ray', ['o', 'd'])
 Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v', 't'])
 ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks'])
 PathState = namedtuple('PathState', ['L', 'T', 'A'])
-Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time', 'T', 'lane'])
+Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time', 'T', 'lane', 'lobe'])
 PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode', 'lobe'])
 Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])

@@ -111,8 +111,10 @@ def vertex(S, p_world, aim_world, alpha, metallic):
     f0 = (0.9, 0.7, 0.3) if metallic else (0.04, 0.04, 0.04)
     b = preview_bsdf(diff, f0, (1.0, 1.0, 1.0), alpha, 0.0, 1e-6)
     pt = tuple(float(x) for x in p)
-    vtx = Vertex(pt, (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), tt, bb, wl, pt, 0.0, (1.0, 1.0, 1.0), 0)
-    return vtx, seen_from(b, wl), shift
+    sb = seen_from(b, wl)
+    lobe = R.glossy_lobe(sb, (tt, bb, (0.0, 1.0, 0.0)))
+    vtx = Vertex(pt, (0.0, 1.0, 0.0), (0.0, 1.0, 0.0), tt, bb, wl, pt, 0.0, (1.0, 1.0, 1.0), 0, lobe)
+    return vtx, sb, shift
 
 
 CASES = {           # (floor point, where the lobe's mirror direction aims, alpha, metallic)
@@ -137,7 +139,7 @@ def mean_inverse_pdf(S, L, vtx, sb, n):
     lost = 0
     for i in range(n):
         for j in range(n):
-            pdf = sample_ld_lobe(S, L, 0, vtx, sb, ((i + 0.5) / n, (j + 0.5) / n))[3]
+            pdf = sample_ld_lobe(S, L, 0, vtx, ((i + 0.5) / n, (j + 0.5) / n))[3]
             if pdf > 0.0:
                 total += 1.0 / pdf
             else:
@@ -181,7 +183,7 @@ def test_a_bsdf_ray_meeting_the_light_is_weighed_by_the_light_samples_pdf(lit, c
     rng = np.random.default_rng(5)
     met = 0
     for u in rng.random((300, 2)):
-        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, sb, (float(u[0]), float(u[1])))
+        wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, (float(u[0]), float(u[1])))
         if not pdf > 0.0:
             continue
         t, pu = hit_shape(S, 0, vtx.p, wi, math.inf, vtx.p)
@@ -202,4 +204,4 @@ def test_no_lobe_no_change(lit):
         vtx, sb, _ = vertex(S, (0.3, 0.0, -4.0), (0.2, 3.0, -5.1), alpha, metallic)
         assert R.glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))[4] == 0.0
         for u in ((0.1, 0.2), (0.7, 0.9)):
-            assert sample_ld_lobe(S, L, 0, vtx, sb, u) == sample_ld(S, L, 0, vtx.p, vtx.ns, u[0], u[1])
+            assert sample_ld_lobe(S, L, 0, vtx, u) == sample_ld(S, L, 0, vtx.p, vtx.ns, u[0], u[1])
