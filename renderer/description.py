@@ -41,11 +41,29 @@ class Mesh:
 @dataclass
 class Sphere:
     """An analytic sphere (UsdGeom.Sphere, course sphere): centre/radius in gprim space plus the
-    gprim-to-container matrix, which may be any affine map (ellipsoids are exact)."""
+    gprim-to-container matrix, which may be any affine map (ellipsoids are exact); or, with `centers`
+    and `radii`, a cloud of spheres (UsdGeom.Points: one gprim, one sphere a point, each its own
+    primitive of the gprim's Embree geometry), whose matrix scales each radius by its mean scale where
+    it is not a similarity."""
     path: str
     radius: float
     matrix: np.ndarray                 # float64 (4, 4) gprim-to-container, column vectors
     material: int = -1
+    centers: Optional[np.ndarray] = None   # float64 (n, 3) gprim space: a point cloud
+    radii: Optional[np.ndarray] = None     # float64 (n,) its spheres' radii, gprim space
+
+    def balls(self) -> np.ndarray:
+        """float64 (n, 4): each sphere's centre and radius in gprim space (one row for a lone sphere)."""
+        if self.centers is None:
+            return np.array([[0.0, 0.0, 0.0, self.radius]])
+        return np.column_stack([self.centers, self.radii])
+
+    def placed_balls(self, scale: float) -> np.ndarray:
+        """float64 (n, 4): each sphere's centre in container space and its radius times `scale` (the
+        matrix's similarity scale)."""
+        b = self.balls()
+        m = self.matrix
+        return np.column_stack([b[:, :3] @ m[:3, :3].T + m[:3, 3], b[:, 3] * scale])
 
 
 @dataclass

@@ -22,7 +22,7 @@ import numpy as np
 from .. import description as D
 from .embree import Device, InstanceGroup
 from ..kernel.trace import MASK_SURFACES
-from ..kernel.tables import (GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
+from ..kernel.tables import (GP_CLOUD, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
                              TEXTURE_F, TEXTURE_I, WRAP)
 
 SceneData = namedtuple('SceneData', [
@@ -81,7 +81,8 @@ def _container_radius(c: D.Container, ctr: np.ndarray) -> float:
         if len(m.points):
             r = max(r, float(np.max(np.linalg.norm(np.asarray(m.points, np.float64) - ctr, axis=1))))
     for s in c.spheres:
-        r = max(r, float(np.linalg.norm(s.matrix[:3, 3] - ctr) + s.radius * np.linalg.norm(s.matrix[:3, :3], 2)))
+        b = s.placed_balls(float(np.linalg.norm(s.matrix[:3, :3], 2)))
+        r = max(r, float(np.max(np.linalg.norm(b[:, :3] - ctr, axis=1) + b[:, 3])))
     return r if np.isfinite(r) else 0.0
 
 
@@ -138,9 +139,9 @@ def _container_center(c: D.Container) -> np.ndarray:
             lo = np.minimum(lo, m.points.min(0))
             hi = np.maximum(hi, m.points.max(0))
     for s in c.spheres:
-        ctr = s.matrix[:3, 3]
-        lo = np.minimum(lo, ctr)
-        hi = np.maximum(hi, ctr)
+        ctr = s.placed_balls(1.0)[:, :3]
+        lo = np.minimum(lo, ctr.min(0))
+        hi = np.maximum(hi, ctr.max(0))
     return np.where(np.isfinite(lo), 0.5 * (lo + hi), 0.0)
 
 
@@ -176,17 +177,19 @@ class _Tables:
         self.n_tri += len(tris)
 
     def add_sphere(self, center_radius: np.ndarray | None, material: int) -> None:
-        """A sphere slot; `center_radius` None for a sphere moved to the unit-sphere container."""
+        """A sphere slot: `center_radius` (n, 4), a row per sphere of the gprim (a point cloud's: its
+        primitives, `shapes.surface` reads row gp_off + primID); None for a sphere moved to the unit-sphere
+        container."""
         self.kind.append(GP_SPHERE)
         self.material.append(material)
-        self.flags.append(GP_HAS_UVS)
+        self.flags.append(GP_HAS_UVS | (GP_CLOUD if center_radius is not None and len(center_radius) > 1 else 0))
         self.n_off.append(-1)
         self.uv_off.append(-1)
         if center_radius is None:
             self.off.append(-1)
         else:
             self.off.append(len(self.sph))
-            self.sph.append(center_radius)
+            self.sph.extend(center_radius)
 
 
 def _cat(parts, shape, dtype):
@@ -257,14 +260,23 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
 
 def _container_shapes(c: D.Container, ctr: np.ndarray):
     """A container's Embree geometry in its object space (re-centred on `ctr`): ([(vertices float32,
-    triangles uint32)] per mesh, [centre - ctr, radius] float64 per sphere or None for a sphere that is
-    not similarity-placed (an ellipsoid: an instance of the unit sphere))."""
+    triangles uint32)] per mesh, [rows (centre - ctr, radius) float64 (n, 4)] per sphere gprim (one row, or a
+    point cloud's n), or None for a lone sphere that is not similarity-placed (an ellipsoid: an instance of the
+    unit sphere); a point cloud's spheres under such a matrix stay spheres, their radii scaled by its mean
+    scale, |det|^(1/3))."""
     meshes = [((np.asarray(m.points, np.float64) - ctr).astype(np.float32),
                np.ascontiguousarray(m.triangles, np.uint32)) for m in c.meshes]
     spheres = []
     for s in c.spheres:
         scale = _similarity_scale(s.matrix[:3, :3])
-        spheres.append(None if scale is None else np.array([*(s.matrix[:3, 3] - ctr), s.radius * scale], np.float64))
+        if scale is None and s.centers is not None:
+            scale = float(abs(np.linalg.det(s.matrix[:3, :3])) ** (1.0 / 3.0))
+        if scale is None:
+            spheres.append(None)
+            continue
+        b = s.placed_balls(scale)
+        b[:, :3] -= ctr
+        spheres.append(b)
     return meshes, spheres
 
 
@@ -292,7 +304,7 @@ def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
                 continue
             geom_to_gp.append(len(tables.kind))
             tables.add_sphere(cr, s.material)
-            e_spheres.append(cr[None, :].astype(np.float32))
+            e_spheres.append(cr.astype(np.float32))
         protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres))
         pr_geom.append(geom_to_gp)
     return protos, centers, radii, pr_gp_start, pr_geom, ellipsoids
@@ -384,9 +396,16 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
         if spheres and scale is None:
             return None
         placed_meshes = [((v.astype(np.float64) @ m[:, :3].T + m[:, 3]).astype(np.float32), t) for v, t in meshes]
-        placed_spheres = [np.array([[*(m[:, :3] @ cr[:3] + m[:, 3]), cr[3] * scale]], np.float64) for cr in spheres]
+        placed_spheres = [_placed_rows(cr, m, scale) for cr in spheres]
         out.append((row, (placed_meshes, placed_spheres), list(range(len(meshes) + len(spheres)))))
     return out
+
+
+def _placed_rows(rows: np.ndarray, m: np.ndarray, scale: float) -> np.ndarray:
+    """Sphere rows (centre, radius) placed by the (3, 4) matrix m of similarity scale `scale`."""
+    if len(rows) == 1:
+        return np.array([[*(m[:, :3] @ rows[0, :3] + m[:, 3]), rows[0, 3] * scale]], np.float64)
+    return np.column_stack([rows[:, :3] @ m[:, :3].T + m[:, 3], rows[:, 3] * scale])
 
 
 def _path_prototypes(built: 'BuiltScene', containers: list) -> list:
@@ -400,7 +419,7 @@ def _path_prototypes(built: 'BuiltScene', containers: list) -> list:
         own = {}
         for ci, c in enumerate(containers):
             meshes, spheres = _container_shapes(c, _container_center(c))
-            spheres = [cr[None, :] for cr in spheres if cr is not None]
+            spheres = [cr for cr in spheres if cr is not None]
             if spheres:
                 own[ci] = built.device.prototype_scene(meshes, spheres, user_shapes=True)
         if len(built.prototypes) > len(containers):       # the ellipsoids' unit sphere (`build`)
@@ -506,7 +525,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         radii.append(1.0)
         pr_gp_start.append(len(tables.kind))
         pr_geom.append([len(tables.kind)])
-        tables.add_sphere(np.array([0.0, 0.0, 0.0, 1.0]), -1)
+        tables.add_sphere(np.array([[0.0, 0.0, 0.0, 1.0]]), -1)
         protos.append(kept[unit] if kept else dev.prototype_scene([], [np.array([[0, 0, 0, 1]], np.float32)]))
         _ellipsoid_placements(containers, ellipsoids, unit, rows, material_sets)
 

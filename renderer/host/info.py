@@ -23,8 +23,9 @@ def describe(desc: SceneDescription) -> str:
     per_container = np.bincount(inst.container, minlength=len(desc.containers)) if inst.count else \
         np.zeros(len(desc.containers), np.int64)
     unique, instanced = desc.triangle_counts()
-    spheres = sum(len(c.spheres) for c in desc.containers)
-    placed_spheres = sum(len(c.spheres) * int(n) for c, n in zip(desc.containers, per_container))
+    balls = [sum(len(s.balls()) for s in c.spheres) for c in desc.containers]      # (a point cloud: its spheres)
+    spheres = sum(balls)
+    placed_spheres = sum(b * int(n) for b, n in zip(balls, per_container))
     lines = [f'{desc.source}',
              f'  up axis {desc.up_axis} (description is Y-up), metersPerUnit {desc.meters_per_unit:g}',
              f'  prototypes (containers): {len(desc.containers)}, placements: {inst.count}, '
@@ -36,7 +37,7 @@ def describe(desc: SceneDescription) -> str:
         container = desc.containers[c]
         tris = sum(len(m.triangles) for m in container.meshes)
         lines.append(f'    {container.key}: {len(container.meshes)} meshes ({tris} triangles), '
-                     f'{len(container.spheres)} spheres, placed {int(per_container[c])}x')
+                     f'{balls[c]} spheres, placed {int(per_container[c])}x')
     if len(order) > MAX_LISTED:
         lines.append(f'    ... {len(order) - MAX_LISTED} more')
     kinds = Counter(LIGHT_NAMES[light.type] for light in desc.lights)

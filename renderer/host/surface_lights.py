@@ -55,7 +55,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F,
+from ..kernel.tables import (GP_CLOUD, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F,
                              SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
 from .light_tree import ENTIRE
 
@@ -147,6 +147,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
     groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
     means = {}
+    clouds = 0
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero(data.in_proto[:n_rows] == c)
         if not len(rows):
@@ -156,6 +157,9 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
             sphere = data.gp_kind[g] == GP_SPHERE
             if (own and not glowing[data.gp_material[g]]) or (data.gp_off[g] < 0 if sphere else counts[g] == 0):
                 continue                                  # no emission, a mesh without triangles
+            if sphere and data.gp_flags[g] & GP_CLOUD:   # a point cloud: found by BSDF rays alone
+                clouds += 1
+                continue
             slot = g - int(data.pr_gp_start[c])
             emit, ok = _emitting(data, rows, slot, g, means)
             m = xf[rows, 0]
@@ -175,6 +179,9 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
             tv = data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]].astype(np.float64)
             world = np.einsum('rij,nvj->rnvi', m[ok][:, :, :3], tv) + m[ok][:, None, None, :, 3]
             groups.append((rows[ok], slot, world, emit))
+    if clouds and warn is not None:
+        warn(f'{clouds} emissive point cloud(s) (UsdGeom.Points): not lights of the path integrator; their light '
+             f'is found by BSDF-sampled rays alone (unbiased, noisier)')
     n_tri = sum(w.shape[0] * w.shape[1] for _, _, w, _ in groups)
     if n_tri > MAX_TRIANGLES and warn is not None:
         warn(f'{n_tri} emissive triangles (placements of emissive meshes) are lights of the path integrator: '

@@ -84,7 +84,7 @@ def surface(S, scene, hit, o, d, time, m, m32):
         lerp_xf(S.in_xf, row, time, m)
     flags = S.gp_flags[g]
     if F_SPHERES and S.gp_kind[g] == GP_SPHERE:
-        k = S.gp_off[g]
+        k = S.gp_off[g] + prim_id                      # (a point cloud's sphere prim_id; a lone sphere's 0)
         c = (S.sph[k, 0], S.sph[k, 1], S.sph[k, 2])
         r = S.sph[k, 3]
         ph = (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])

@@ -1,4 +1,5 @@
-"""UsdGeom gprims -> `Mesh` / `Sphere` records in their container's space.
+"""UsdGeom gprims -> `Mesh` / `Sphere` records in their container's space (UsdGeom.Points: a `Sphere`
+record of many spheres).
 
 Every converter receives the gprim-to-container matrix (float64 4x4, column vectors) and bakes
 it: points are transformed, normals use the inverse transpose, and triangles are re-wound so
@@ -450,9 +451,35 @@ def _sphere(prim, m, time, warn):
     return [Sphere(path=str(prim.GetPath()), radius=r, matrix=np.array(m, np.float64))]
 
 
+def _points(prim, m, time, warn):
+    """UsdGeom.Points: a cloud of spheres, one a point, of diameter its width (`widths`, constant or one a
+    point; unauthored: 1, as Hydra draws them), in gprim space; points that are not finite, or whose width is
+    not positive, are left out (warned)."""
+    pts = UsdGeom.Points(prim)
+    path = str(prim.GetPath())
+    p = pts.GetPointsAttr().Get(time)
+    p = np.zeros((0, 3)) if p is None else np.asarray(p, np.float64).reshape(-1, 3)
+    w = pts.GetWidthsAttr().Get(time)
+    w = np.ones(1) if w is None or len(w) == 0 else np.asarray(w, np.float64).reshape(-1)
+    if len(w) not in (1, len(p)):
+        warn(f'{path}: {len(w)} widths for {len(p)} points (interpolation {pts.GetWidthsInterpolation()}); '
+             f'using the first for every point')
+    r = 0.5 * (np.full(len(p), w[0]) if len(w) != len(p) else w)
+    ok = np.all(np.isfinite(p), axis=1) & np.isfinite(r) & (r > 0.0)
+    if not ok.all():
+        warn(f'{path}: {int((~ok).sum())} of {len(p)} points left out (not finite, or width not positive)')
+    if not ok.any():
+        raise GeometryError(f'{path}: no point to draw')
+    g = m[:3, :3].T @ m[:3, :3]
+    if not np.allclose(g, np.trace(g) / 3.0 * np.eye(3), rtol=1e-6, atol=1e-12 * abs(np.trace(g))):
+        warn(f'{path}: a non-uniform scale; its points stay spheres, their widths scaled by its mean scale')
+    return [Sphere(path=path, radius=float(r[ok].max()), matrix=np.array(m, np.float64),
+                   centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]))]
+
+
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
 _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,
-    'Plane': _plane,
+    'Plane': _plane, 'Points': _points,
 }

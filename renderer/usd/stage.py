@@ -417,6 +417,14 @@ def _collapse_static_motion(desc: SceneDescription) -> None:
     desc.shutter_times = desc.shutter_times[:1]
 
 
+def _spheres_box(s) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of a sphere gprim (a lone sphere, an ellipsoid, or a point cloud's spheres) in its container."""
+    b = s.balls()
+    ext = b[:, 3:] * np.linalg.norm(s.matrix[:3, :3], axis=1)       # the half extents of each ball's image
+    c = b[:, :3] @ s.matrix[:3, :3].T + s.matrix[:3, 3]
+    return (c - ext).min(0), (c + ext).max(0)
+
+
 def scene_bounds(desc: SceneDescription, box=points_box) -> tuple[np.ndarray, np.ndarray]:
     """World-space axis-aligned bounds of all placed geometry at the first motion sample
     (inverted infinite box when there is none).  `box(points)`: a mesh's (lo, hi)."""
@@ -424,9 +432,7 @@ def scene_bounds(desc: SceneDescription, box=points_box) -> tuple[np.ndarray, np
     inst = desc.instances
     for c, container in enumerate(desc.containers):
         boxes = [box(m.points) for m in container.meshes]
-        boxes += [(s.matrix[:3, 3] - s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1),
-                   s.matrix[:3, 3] + s.radius * np.linalg.norm(s.matrix[:3, :3], axis=1))
-                  for s in container.spheres]
+        boxes += [_spheres_box(s) for s in container.spheres]
         if not boxes:
             continue
         box_lo, box_hi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)

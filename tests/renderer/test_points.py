@@ -1,0 +1,153 @@
+"""UsdGeom.Points: a cloud of spheres, one gprim (`usd/geometry._points`, `description.Sphere.centers`), each
+point a primitive of the gprim's Embree geometry (`shapes.surface` reads row gp_off + primID).  Read: widths
+per point, constant or unauthored (1, as Hydra draws them), bad points left out with a warning.  Rendered: the
+same image as the same spheres authored as UsdGeom.Sphere prims, by both integrators, placed once or
+instanced."""
+import numpy as np
+import pytest
+from pxr import Gf, Usd, UsdGeom, UsdLux
+
+from rtc.renderer.host.render import Renderer
+from rtc.renderer.options import RenderOptions
+from rtc.renderer.usd.stage import read_stage
+
+CENTRES = [(-1.0, 0.5, 0.0), (0.0, 0.5, 0.3), (1.1, 0.6, 0.0), (0.0, 1.5, -1.0), (-0.4, 0.2, 1.0)]
+WIDTHS = [0.8, 0.6, 1.0, 0.5, 0.3]
+
+
+def _stage(cloud: bool, instanced: bool = False) -> Usd.Stage:
+    """A floor, a sphere light, a camera and five balls, as one Points prim (cloud) or as five Spheres,
+    under a rotated, uniformly scaled and moved Xform; `instanced`: that Xform an instanceable prototype
+    placed twice."""
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    UsdGeom.SetStageMetersPerUnit(st, 1.0)
+    floor = UsdGeom.Mesh.Define(st, '/World/Floor')
+    floor.CreatePointsAttr([(-6, 0, -6), (-6, 0, 6), (6, 0, 6), (6, 0, -6)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    light = UsdLux.SphereLight.Define(st, '/World/Light')
+    light.CreateIntensityAttr(300.0)
+    light.CreateRadiusAttr(0.5)
+    light.AddTranslateOp().Set(Gf.Vec3d(2, 4, 3))
+    cam = UsdGeom.Camera.Define(st, '/World/Cam')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 1.5, 7))
+    if instanced:
+        UsdGeom.Xform.Define(st, '/Proto')
+    root = '/Proto/Balls' if instanced else '/World/Balls'
+    xf = UsdGeom.Xform.Define(st, root)
+    xf.AddTranslateOp().Set(Gf.Vec3d(0.2, 0.1, -0.3))
+    xf.AddRotateYOp().Set(25.0)
+    xf.AddScaleOp().Set(Gf.Vec3f(1.3, 1.3, 1.3))
+    if cloud:
+        pts = UsdGeom.Points.Define(st, root + '/Cloud')
+        pts.CreatePointsAttr(CENTRES)
+        pts.CreateWidthsAttr(WIDTHS)
+        pts.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    else:
+        for k, (c, w) in enumerate(zip(CENTRES, WIDTHS)):
+            s = UsdGeom.Sphere.Define(st, f'{root}/S{k}')
+            s.CreateRadiusAttr(w / 2)
+            s.AddTranslateOp().Set(Gf.Vec3d(*c))
+    if instanced:
+        for k, x in enumerate((-1.5, 1.5)):
+            p = st.DefinePrim(f'/World/B{k}')
+            p.GetReferences().AddInternalReference('/Proto')
+            p.SetInstanceable(True)
+            UsdGeom.Xformable(p).AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+    return st
+
+
+def _points_stage(points, widths=None, interpolation=None):
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    pts = UsdGeom.Points.Define(st, '/P')
+    pts.CreatePointsAttr(points)
+    if widths is not None:
+        pts.CreateWidthsAttr(widths)
+    if interpolation:
+        pts.SetWidthsInterpolation(interpolation)
+    return st
+
+
+def test_points_are_read_as_one_cloud_of_spheres():
+    st = _stage(cloud=True)
+    desc = read_stage(st)
+    (cloud,) = [s for c in desc.containers for s in c.spheres]
+    assert cloud.path == '/World/Balls/Cloud'
+    f32 = lambda v: np.array(v, np.float32).astype(np.float64)          # (point3f[], float[] in the file)
+    np.testing.assert_array_equal(cloud.balls(), np.column_stack([f32(CENTRES), f32(WIDTHS) / 2]))
+    m = UsdGeom.Xformable(st.GetPrimAtPath('/World/Balls')).ComputeLocalToWorldTransform(0)
+    np.testing.assert_allclose(cloud.matrix, np.array(m).T, atol=1e-12)      # (column vectors)
+    assert 'spheres: 5 unique, 5 instanced' in _describe(desc)
+
+
+def _describe(desc):
+    from rtc.renderer.host.info import describe
+    return describe(desc)
+
+
+@pytest.mark.parametrize('widths, interpolation, radii', [
+    (None, None, [0.5, 0.5, 0.5]),                         # unauthored: width 1
+    ([0.4], UsdGeom.Tokens.constant, [0.2, 0.2, 0.2]),
+    ([0.2, 0.4, 0.6], UsdGeom.Tokens.vertex, [0.1, 0.2, 0.3]),
+])
+def test_widths_constant_per_point_or_unauthored(widths, interpolation, radii):
+    desc = read_stage(_points_stage([(0, 0, 0), (1, 0, 0), (2, 0, 0)], widths, interpolation))
+    (cloud,) = desc.containers[0].spheres
+    np.testing.assert_allclose(cloud.radii, radii, rtol=1e-7)
+    assert not [w for w in desc.warnings if '/P' in w]
+
+
+def test_bad_points_are_left_out_with_a_warning():
+    desc = read_stage(_points_stage([(0, 0, 0), (float('nan'), 0, 0), (2, 0, 0), (3, 0, 0)], [1.0, 1.0, 0.0, -1.0],
+                                    UsdGeom.Tokens.vertex))
+    (cloud,) = desc.containers[0].spheres
+    np.testing.assert_array_equal(cloud.centers, [[0, 0, 0]])
+    assert any('/P: 3 of 4 points left out' in w for w in desc.warnings)
+    desc = read_stage(_points_stage([(0, 0, 0), (1, 0, 0)], [0.5, 0.5, 0.5], UsdGeom.Tokens.vertex))
+    np.testing.assert_allclose(desc.containers[0].spheres[0].radii, [0.25, 0.25], rtol=1e-7)
+    assert any('/P: 3 widths for 2 points' in w for w in desc.warnings)
+    desc = read_stage(_points_stage([(float('inf'), 0, 0)]))
+    assert not any(c.spheres for c in desc.containers) and any('/P: no point to draw' in s for s in desc.skipped)
+
+
+@pytest.mark.parametrize('integrator', ['path', 'cook'])
+@pytest.mark.parametrize('instanced', [False, True])
+def test_a_point_cloud_renders_as_its_spheres(integrator, instanced):
+    """The cloud's image equals that of the same balls as UsdGeom.Spheres (the same balls, only grouped in
+    one Embree geometry, their centres placed by numpy instead of USD's matrix products: the pixels agree to
+    float rounding, a ball moved by 1e-16 of its size)."""
+    images = []
+    for cloud in (True, False):
+        desc = read_stage(_stage(cloud, instanced))
+        with Renderer(desc, threads=1) as r:
+            images.append(r.render(RenderOptions(width=64, height=48, spp=4, integrator=integrator,
+                                                 max_depth=3, threads=1)).image)
+    a, b = images
+    diff = np.abs(a.astype(np.float64) - b)
+    assert b.mean() > 0.05 and diff.mean() <= 1e-6 * b.mean() and diff.max() <= 1e-4 * b.max()
+
+
+def test_an_emissive_cloud_is_lit_by_bsdf_rays_and_warned():
+    """An emissive point cloud is not a light of the path integrator (a lone emissive sphere is): its light
+    is found by BSDF-sampled rays alone, with weight 1, and the build says so."""
+    from rtc.renderer import description as D
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    from tests.renderer.handmade import look_at, quad, scene, translate
+    glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
+    cloud = D.Sphere(path='/cloud', radius=0.2, matrix=np.eye(4), material=0,
+                     centers=np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]), radii=np.array([0.2, 0.1]))
+    lone = D.Sphere(path='/lone', radius=0.3, matrix=translate(-1.0, 1.0, 0.0), material=0)
+    grey = D.Material('/grey', model=D.LAMBERTIAN)
+    desc = scene([D.Container('/', meshes=[quad(6.0, material=1)], spheres=[cloud, lone])], [glow, grey], [],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
+    built = build(desc)
+    try:
+        with pytest.warns(RuntimeWarning, match='emissive point cloud'):
+            L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
+        assert L.n_surface == 1                         # the lone sphere
+        assert any('1 emissive point cloud' in w for w in desc.warnings)
+    finally:
+        built.close()
