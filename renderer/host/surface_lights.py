@@ -55,8 +55,9 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_CLOUD, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F,
-                             SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
+from ..kernel.tables import (GP_CLOUD, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
+                             SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
+                             TI_WIDTH)
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000

@@ -16,9 +16,9 @@ most of its albedo, rect and disk lights are drawn towards the lobe instead (`sa
 `lobe_sampling.py`), and a BSDF ray from it that meets one is weighed by that strategy's pdf.
 Emissive surfaces are sampled by `surface_lights.sample_surface` (which `path.light_sample` calls for
 them: a moving one needs the ray's time and Embree's matrix at it).  Rects and disks emit from their
-front (local -Z) only, spheres and cylinders outwards (a cylinder from its side, not its caps: points facing away from the
-receiver are drawn and contribute nothing), emissive surfaces from both sides.  Light shapes occlude
-nothing (shadow rays do not meet them: ray masks), and a ray collects the emission of every light
+front (local -Z) only, spheres and cylinders outwards (a cylinder from its side, not its caps: points
+facing away from the receiver are drawn and contribute nothing), emissive surfaces from both sides.
+Light shapes occlude nothing (shadow rays do not meet them: ray masks), and a ray collects the emission of every light
 shape it crosses before the surface it hits (`shape_emission`, `path.find_surface`).  Every ray
 sees them, camera rays included (UsdLux gives lights no camera-visibility attribute; path renders
 what the light emits towards the camera, as Mitsuba and Karma do by default); the cook integrator

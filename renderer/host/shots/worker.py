@@ -92,7 +92,7 @@ def same_containers(a, b) -> bool:
                 if x is not y and not np.array_equal(x, y):      # the same arrays: a kept static gprim
                     return False
         for sa, sb in zip(ca.spheres, cb.spheres):
-            if sa.radius != sb.radius or not np.array_equal(sa.matrix, sb.matrix) or not np.array_equal(sa.balls(), sb.balls()):
+            if not (np.array_equal(sa.matrix, sb.matrix) and np.array_equal(sa.balls(), sb.balls())):   # (radii too)
                 return False
     return True
 
