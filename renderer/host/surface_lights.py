@@ -2,7 +2,8 @@
 resolved material emits (UsdPreviewSurface `emissiveColor`, or a mesh with UsdLux MeshLightAPI, which the
 stage reader turns into that material's emission) is one light of the light tree; a static one is sampled
 uniformly by area over its world-space triangles or its world-space sphere (ellipsoids and moving
-placements below).
+placements below).  A point cloud (a sphere gprim of many balls, UsdGeom.Points) is a light a ball at each
+placement, a placement's balls consecutive lights (a hit's light: its gprim slot's first plus its primitive).
 
 Sidedness: an emissive surface emits the same radiance from both of its sides (as Storm, Cycles and
 today's emission at a hit do; the renderer shades every gprim on both sides).  Light samples use
@@ -19,9 +20,9 @@ Tables (the `PathLights` fields `sl_*`; light j of these is light `surface_first
   sl_tri float64 (triangles, 3, 3): world (camera-relative) triangles, one copy per placement
   sl_cdf float64 (triangles,): cumulative area of a light's triangles over A, ending at exactly 1
   sl_row int64 (placement rows of `SceneData`): offset into sl_idx of the row's gprims, -1 if none emits
-  sl_idx int64: per gprim slot of such a row, its light (tree index) or -1
+  sl_idx int64: per gprim slot of such a row, its light (tree index; a point cloud's first) or -1
 The world triangles are copied per placement: meant for the few emissive meshes scenes have; more than
-MAX_TRIANGLES of them are warned about (memory, build time).
+MAX_TRIANGLES of them are warned about (memory, build time), and more than MAX_BALLS emissive spheres.
 
 A sphere placed by a matrix that is no similarity is an ellipsoid, centre + A n for the unit vectors n:
 a light sampled uniformly in n, whose density per unit area on the ellipsoid is 1 / (4 pi |det A| |A^-T n|)
@@ -55,26 +56,38 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_CLOUD, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
+from ..kernel.tables import (GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
                              SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
                              TI_WIDTH)
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000
+MAX_BALLS = 100_000
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 SurfaceLights = namedtuple('SurfaceLights', ['sl_f', 'sl_i', 'sl_tri', 'sl_cdf', 'sl_row', 'sl_idx', 'bounds'])
 
 
+def _row_counts(data, mask: np.ndarray, table: np.ndarray) -> np.ndarray:
+    """Rows of `table` each gprim of `mask` owns (its offset gp_off up to the next one's; 0 elsewhere)."""
+    counts = np.zeros(len(data.gp_kind), np.int64)
+    gprims = np.flatnonzero(mask)
+    if len(gprims):
+        off = data.gp_off[gprims]
+        order = np.argsort(off, kind='stable')
+        ends = np.append(off[order][1:], len(table))
+        counts[gprims[order]] = ends - off[order]
+    return counts
+
+
 def _triangle_counts(data) -> np.ndarray:
     """Triangles of each gprim (0 for a sphere)."""
-    counts = np.zeros(len(data.gp_kind), np.int64)
-    mesh = np.flatnonzero(data.gp_kind == GP_MESH)
-    if len(mesh):
-        off = data.gp_off[mesh]
-        order = np.argsort(off, kind='stable')
-        ends = np.append(off[order][1:], len(data.tri_v))
-        counts[mesh[order]] = ends - off[order]
-    return counts
+    return _row_counts(data, data.gp_kind == GP_MESH, data.tri_v)
+
+
+def _ball_counts(data) -> np.ndarray:
+    """Spheres of each sphere gprim (1, or a point cloud's points; 0 for a mesh, and for a sphere moved to the
+    unit-sphere container: an ellipsoid placed as its instance, a gprim of that container)."""
+    return _row_counts(data, (data.gp_kind == GP_SPHERE) & (data.gp_off >= 0), data.sph)
 
 
 def texture_mean(data, k: int) -> np.ndarray:
@@ -137,7 +150,7 @@ def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
 def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     """The emissive surfaces of the built scene tables `data` (`build.SceneData`) as lights numbered
     from `first` (the number of the scene's other lights); `warn(message)` is told of a scene with more
-    than MAX_TRIANGLES emissive triangles."""
+    than MAX_TRIANGLES emissive triangles or MAX_BALLS emissive spheres."""
     glowing = np.any(data.mat_f[:, MF_EMIT:MF_EMIT + 3] != 0.0, axis=1)
     if not glowing.any():                         # the common case: nothing to look at
         return surface_lights_none()
@@ -146,9 +159,9 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     xf = data.in_xf[:n_rows]
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
-    groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | (centres, radii), emission)
+    groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | placed balls, emission)
     means = {}
-    clouds = 0
+    n_balls = _ball_counts(data)
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero(data.in_proto[:n_rows] == c)
         if not len(rows):
@@ -156,37 +169,36 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
         own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
         for g in range(int(data.pr_gp_start[c]), int(ends[c])):
             sphere = data.gp_kind[g] == GP_SPHERE
-            if (own and not glowing[data.gp_material[g]]) or (data.gp_off[g] < 0 if sphere else counts[g] == 0):
-                continue                                  # no emission, a mesh without triangles
-            if sphere and data.gp_flags[g] & GP_CLOUD:   # a point cloud: found by BSDF rays alone
-                clouds += 1
-                continue
+            if (own and not glowing[data.gp_material[g]]) or (n_balls[g] if sphere else counts[g]) == 0:
+                continue                                  # no emission, a mesh without triangles, an ellipsoid
             slot = g - int(data.pr_gp_start[c])
             emit, ok = _emitting(data, rows, slot, g, means)
             m = xf[rows, 0]
             if sphere:
                 ok &= _invertible(m)
+            off = int(data.gp_off[g])
+            obj = np.asarray(data.sph[off:off + n_balls[g]] if sphere else data.tri_v[off:off + counts[g]], np.float64)
             moving = ok & ~static[rows]
             if moving.any():
-                obj = data.sph[data.gp_off[g]] if sphere else data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]]
-                movers.append((rows[moving], slot, np.asarray(obj, np.float64), xf[rows[moving]], emit[moving]))
+                movers.append((rows[moving], slot, obj, xf[rows[moving]], emit[moving]))
             ok &= static[rows]
             if not ok.any():
                 continue
             emit = emit[ok]
             if sphere:
-                balls.append((rows[ok], slot, _placed_sphere(data.sph[data.gp_off[g]], m[ok]), emit))
+                balls.append((rows[ok], slot, _placed_balls(obj, m[ok]), emit))
                 continue
-            tv = data.tri_v[data.gp_off[g]:data.gp_off[g] + counts[g]].astype(np.float64)
-            world = np.einsum('rij,nvj->rnvi', m[ok][:, :, :3], tv) + m[ok][:, None, None, :, 3]
+            world = np.einsum('rij,nvj->rnvi', m[ok][:, :, :3], obj) + m[ok][:, None, None, :, 3]
             groups.append((rows[ok], slot, world, emit))
-    if clouds and warn is not None:
-        warn(f'{clouds} emissive point cloud(s) (UsdGeom.Points): not lights of the path integrator; their light '
-             f'is found by BSDF-sampled rays alone (unbiased, noisier)')
     n_tri = sum(w.shape[0] * w.shape[1] for _, _, w, _ in groups)
     if n_tri > MAX_TRIANGLES and warn is not None:
         warn(f'{n_tri} emissive triangles (placements of emissive meshes) are lights of the path integrator: '
              f'more than {MAX_TRIANGLES}, they cost memory and build time (one world-space copy each)')
+    n_balls = sum(b[2][1].size for b in balls) + sum(len(m[0]) * len(m[2]) for m in movers if m[2].ndim == 2)
+    if n_balls > MAX_BALLS and warn is not None:
+        warn(f'{n_balls} emissive spheres (placements of emissive spheres and the points of emissive point clouds) '
+             f'are lights of the path integrator: more than {MAX_BALLS}, they cost memory (~350 bytes each) and '
+             'build time')
     return _tables(data, groups, balls, first, movers)
 
 
@@ -207,40 +219,54 @@ def _invertible(m: np.ndarray) -> np.ndarray:
     return np.isfinite(det) & (np.abs(det) > 1e-12 * scale ** 3)
 
 
-def _placed_sphere(cr: np.ndarray, m: np.ndarray):
-    """(world centres (R, 3), radii (R,), axes (R, 3, 3)) of a sphere (container centre and radius) at
-    placements m: radius 0 where the placement is no similarity (an ellipsoid: centre + axes n for the
-    unit vectors n)."""
-    return m[:, :, :3] @ cr[:3] + m[:, :, 3], cr[3] * _similarity(m), cr[3] * m[:, :, :3]
+def _placed_balls(cr: np.ndarray, m: np.ndarray):
+    """(world centres (R, n, 3), radii (R, n), axes (R, n, 3, 3)) of a sphere gprim's balls cr (n, 4: container
+    centre and radius; a point cloud's n) at placements m (R, 3, 4): radius 0 where the placement is no
+    similarity (an ellipsoid: centre + axes u for the unit vectors u)."""
+    centres = np.einsum('rij,nj->rni', m[:, :, :3], cr[:, :3]) + m[:, None, :, 3]
+    axes = cr[None, :, 3, None, None] * m[:, None, :, :3]
+    return centres, cr[None, :, 3] * _similarity(m)[:, None], axes
 
 
 def _ball_rows(data, balls: list, first: int):
-    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive spheres, lights first, first + 1, ..."""
+    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive spheres, lights first, first + 1, ...: a
+    placement's balls (a point cloud's points) are consecutive lights, so that a hit's light is its gprim
+    slot's first one plus its primitive (`kernel/surface_lights.light_of_hit`).  A ball of radius 0 is an
+    ellipsoid of its axes (`_placed_balls`); a sphere's texture coordinates use its direction in its own frame
+    (INV, the inverse of its axes)."""
     sl_f, sl_i, bounds, row_lights = [], [], [], []
-    for rows, slot, (centre, radius, axes), emit in balls:
-        for r in range(len(rows)):
-            f = np.zeros(SURFACE_LIGHT_F.width)
-            i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
-            if radius[r] > 0.0:
-                SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=4 * np.pi * radius[r] ** 2, CENTER=centre[r],
-                                      RADIUS=radius[r], INV=np.linalg.inv(axes[r]).ravel())   # (its st: below)
-                extent = np.full(3, radius[r])
-                projected = np.pi * radius[r] ** 2
-            else:                                        # an ellipsoid: its largest projected area pi s1 s2
-                a = axes[r]
-                SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=4 * np.pi * abs(np.linalg.det(a)), CENTER=centre[r],
-                                      AXES=a.ravel(), INV=np.linalg.inv(a).ravel())
-                SURFACE_LIGHT_I.write(i, ELLIPSOID=1)
-                extent = np.sqrt((a * a).sum(1))
-                s = np.linalg.svd(a, compute_uv=False)
-                projected = np.pi * s[0] * s[1]
-            SURFACE_LIGHT_I.write(i, **_texture_ids(data, rows[r], slot, emit[r]))
-            sl_f.append(f)
-            sl_i.append(i)
-            phi = float(projected * emit[r, 4])
-            bounds.append((centre[r] - extent, centre[r] + extent, phi, ENTIRE, True))
-        row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
+    for rows, slot, (centres, radii, axes), emit in balls:
+        R, n = radii.shape
+        c, r, a = centres.reshape(-1, 3), radii.ravel(), axes.reshape(-1, 3, 3)
+        e = np.repeat(emit, n, axis=0)
+        f = np.zeros((R * n, SURFACE_LIGHT_F.width))
+        i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
+        ball = r > 0.0
+        _put(SURFACE_LIGHT_F, f, RAD=e[:, :3], CENTER=c, RADIUS=r, INV=np.linalg.inv(a).reshape(-1, 9),
+             AREA=np.where(ball, 4 * np.pi * r ** 2, 4 * np.pi * np.abs(np.linalg.det(a))),
+             AXES=np.where(ball[:, None], 0.0, a.reshape(-1, 9)))
+        ids = [_texture_ids(data, row, slot, emit[k]) for k, row in enumerate(rows)]
+        _put(SURFACE_LIGHT_I, i, ELLIPSOID=~ball, EMISSION_TEX=np.repeat([d['EMISSION_TEX'] for d in ids], n),
+             GPRIM=np.repeat([d['GPRIM'] for d in ids], n))
+        extent = np.where(ball[:, None], r[:, None], np.sqrt((a * a).sum(2)))
+        projected = np.pi * r ** 2                           # an ellipsoid's largest projected area: pi s1 s2
+        if not ball.all():
+            sv = np.linalg.svd(a[~ball], compute_uv=False)
+            projected[~ball] = np.pi * sv[:, 0] * sv[:, 1]
+        phi = projected * e[:, 4]
+        start = len(bounds)
+        bounds += [(lo, hi, float(p), ENTIRE, True) for lo, hi, p in zip(c - extent, c + extent, phi)]
+        sl_f += list(f)
+        sl_i += list(i)
+        row_lights.append((rows, slot, first + start + n * np.arange(R)))
     return sl_f, sl_i, bounds, row_lights
+
+
+def _put(table, rows: np.ndarray, **columns) -> None:
+    """Store each field's values (one a row) into the rows (n, table.width) of a table."""
+    for name, v in columns.items():
+        off, width = table.offset[name], table.widths[name]
+        rows[:, off:off + width] = np.asarray(v).reshape(len(rows), width)
 
 
 def _instance_ids(data, rows: np.ndarray) -> np.ndarray:
@@ -280,36 +306,38 @@ def _moving_bounds(obj: np.ndarray, sphere: bool, xf: np.ndarray, lum: float):
 def _mover_rows(data, movers: list, first: int, n_tri: int):
     """(sl_f rows, sl_i rows, object triangles, their cdfs, bounds, row_lights) of the moving placements'
     lights, numbered from `first`, their triangles stored from `n_tri` (one object-space copy per gprim,
-    shared by its placements)."""
+    shared by its placements); a sphere gprim's balls (obj (n, 4): a point cloud's points) are consecutive
+    lights of each placement."""
     sl_f, sl_i, tris, cdfs, bounds, row_lights = [], [], [], [], [], []
     for rows, slot, obj, xf, emit in movers:
-        sphere = obj.ndim == 1
-        if sphere:
-            area = 4.0 * np.pi * obj[3] ** 2
-        else:
+        sphere = obj.ndim == 2
+        if not sphere:
             a = 0.5 * np.linalg.norm(np.cross(obj[:, 1] - obj[:, 0], obj[:, 2] - obj[:, 0]), axis=1)
-            area = a.sum()
-            if not area > 0.0:
+            if not a.sum() > 0.0:
                 continue
-            cdf = np.cumsum(a) / area
+            cdf = np.cumsum(a) / a.sum()
             cdf[-1] = 1.0
             tris.append(obj)
             cdfs.append(cdf)
+        parts = obj if sphere else [obj]
         ids = _instance_ids(data, rows)
+        start = len(bounds)
         for r in range(len(rows)):
-            f = np.zeros(SURFACE_LIGHT_F.width)
-            i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
-            SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=area)
-            SURFACE_LIGHT_I.write(i, **_texture_ids(data, rows[r], slot, emit[r]))
-            if sphere:
-                SURFACE_LIGHT_F.write(f, CENTER=obj[:3], RADIUS=obj[3])
-            else:
-                SURFACE_LIGHT_I.write(i, FIRST=n_tri, COUNT=len(obj))
-            SURFACE_LIGHT_I.write(i, MOVING=1, INST=ids[r, 0], INST_PRIM=ids[r, 1])
-            sl_f.append(f)
-            sl_i.append(i)
-            bounds.append(_moving_bounds(obj, sphere, xf[r], float(emit[r, 4])))
-        row_lights.append((rows, slot, first + len(bounds) - len(rows) + np.arange(len(rows))))
+            for part in parts:
+                f = np.zeros(SURFACE_LIGHT_F.width)
+                i = np.zeros(SURFACE_LIGHT_I.width, np.int64)
+                SURFACE_LIGHT_I.write(i, **_texture_ids(data, rows[r], slot, emit[r]))
+                if sphere:
+                    SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=4.0 * np.pi * part[3] ** 2, CENTER=part[:3],
+                                          RADIUS=part[3])
+                else:
+                    SURFACE_LIGHT_F.write(f, RAD=emit[r, :3], AREA=a.sum())
+                    SURFACE_LIGHT_I.write(i, FIRST=n_tri, COUNT=len(obj))
+                SURFACE_LIGHT_I.write(i, MOVING=1, INST=ids[r, 0], INST_PRIM=ids[r, 1])
+                sl_f.append(f)
+                sl_i.append(i)
+                bounds.append(_moving_bounds(part, sphere, xf[r], float(emit[r, 4])))
+        row_lights.append((rows, slot, first + start + len(parts) * np.arange(len(rows))))
         if not sphere:
             n_tri += len(obj)
     return sl_f, sl_i, tris, cdfs, bounds, row_lights

@@ -1,20 +1,20 @@
-"""Emissive surfaces as lights of the path integrator (tables: `host/surface_lights.py`): a light
-sample on one, and the MIS weight of its emission where a BSDF-sampled ray hits it.
+"""Emissive surfaces as lights of the path integrator (tables: `host/surface_lights.py`): a light sample on
+one, and the MIS weight of its emission where a BSDF-sampled ray hits it.
 
-A light sample picks a triangle of the light by area (its cumulative-area table) and a point uniformly
-on it, or a point uniformly on a sphere: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total
+A light sample picks a triangle of the light by area (its cumulative-area table) and a point uniformly on
+it, or a point uniformly on a sphere: pdf d^2 / (|cos_l| A) per unit solid angle, A the light's total
 area (a sphere's far side, drawn as often, is hidden by its near side: the shadow ray finds it).  An
-ellipsoid (centre + A n, n on the unit sphere) is sampled uniformly in n: its density per unit area at the
-point of n is 1 / (4 pi |det A| |A^-T n|), the inverse of the map's area element, so A above is replaced
-by that point's 4 pi |det A| |A^-T n| (`_ellipsoid_area`), for a light sample and for a hit alike.  Both
-sides emit (|cos_l|; the host's module docstring gives the rule).  A ray that hits an emissive surface finds its light from
-the hit's placement row and gprim slot (`sl_row`, `sl_idx`); a surface that is no light (-1: emission
-without luminance) keeps weight 1.  A see-through surface (opacity a) is a light of a times its emission,
-found by rays with probability a: its emission where one finds it is MIS-weighted like any other
-(`host/surface_lights.py`).  A moving placement keeps its object-space triangles or sphere and is placed at
-the ray's time by the matrix Embree traced it with (`_placement`): an object area element dA is
-|cof(M) n| dA in the world, so A above becomes the object area times that scale (`_moving_point`,
-`_moving_area`).
+ellipsoid (centre + A n, n on the unit sphere) is sampled uniformly in n: its density per unit area at
+the point of n is 1 / (4 pi |det A| |A^-T n|), the inverse of the map's area element, so A above is
+replaced by that point's 4 pi |det A| |A^-T n| (`_ellipsoid_area`), for a light sample and for a hit
+alike.  Both sides emit (|cos_l|; the host's module docstring gives the rule).  A ray that hits an
+emissive surface finds its light from the hit's placement row and gprim slot (`sl_row`, `sl_idx`; a point
+cloud's ball: plus its primitive); a surface that is no light (-1: emission without luminance) keeps
+weight 1.  A see-through surface (opacity a) is a light of a times its emission, found by rays with
+probability a: its emission where one finds it is MIS-weighted like any other (`host/surface_lights.py`).
+A moving placement keeps its object-space triangles or sphere and is placed at the ray's time by the
+matrix Embree traced it with (`_placement`): an object area element dA is |cof(M) n| dA in the world, so
+A above becomes the object area times that scale (`_moving_point`, `_moving_area`).
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -23,14 +23,14 @@ import math
 
 import numba as nb
 
-from .features import F_TEXTURES, F_XF_MOTION
+from .features import F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .shapes import sphere_st, triangle_st
-from .tables import (SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID,
+from .tables import (GP_CLOUD, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID,
                      SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING)
 from .textures import sample_texture
-from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, instance_transform
+from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
 from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
 
 ZERO = (0.0, 0.0, 0.0)
@@ -243,7 +243,10 @@ def light_of_hit(S, L, u):
         return -1
     proto = S.in_proto[row]
     g = S.pr_geom_gp[S.pr_geom_off[proto] + u[GEOM_ID]]
-    return L.sl_idx[base + g - S.pr_gp_start[proto]]
+    k = L.sl_idx[base + g - S.pr_gp_start[proto]]
+    if F_SPHERES and k >= 0 and S.gp_flags[g] & GP_CLOUD:
+        k += u[PRIM_ID]                              # a point cloud's point: its placement's lights, in order
+    return k
 
 
 @nb.njit(**_JIT)

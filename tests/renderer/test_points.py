@@ -2,10 +2,13 @@
 point a primitive of the gprim's Embree geometry (`shapes.surface` reads row gp_off + primID).  Read: widths
 per point, constant or unauthored (1, as Hydra draws them), bad points left out with a warning.  Rendered: the
 same image as the same spheres authored as UsdGeom.Sphere prims, by both integrators, placed once or
-instanced."""
+instanced.  Emissive: each point a light of the path integrator (lit by the cloud alone, the same image as the
+same emissive spheres, placed once, instanced, squashed into ellipsoids or moving); `scenes/points.usda`."""
+import contextlib
+
 import numpy as np
 import pytest
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.options import RenderOptions
@@ -15,10 +18,13 @@ CENTRES = [(-1.0, 0.5, 0.0), (0.0, 0.5, 0.3), (1.1, 0.6, 0.0), (0.0, 1.5, -1.0),
 WIDTHS = [0.8, 0.6, 1.0, 0.5, 0.3]
 
 
-def _stage(cloud: bool, instanced: bool = False) -> Usd.Stage:
+def _stage(cloud: bool, instanced: bool = False, glow: bool = False, squash: bool = False,
+           moving: bool = False) -> Usd.Stage:
     """A floor, a sphere light, a camera and five balls, as one Points prim (cloud) or as five Spheres,
     under a rotated, uniformly scaled and moved Xform; `instanced`: that Xform an instanceable prototype
-    placed twice."""
+    placed twice.  `glow`: the balls emit (UsdPreviewSurface emissiveColor) and the sphere light is gone;
+    `squash`: the second placement scaled by (1, 0.6, 1) (its balls ellipsoids); `moving`: it moves over
+    the shutter."""
     st = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(st, 'Y')
     UsdGeom.SetStageMetersPerUnit(st, 1.0)
@@ -26,12 +32,15 @@ def _stage(cloud: bool, instanced: bool = False) -> Usd.Stage:
     floor.CreatePointsAttr([(-6, 0, -6), (-6, 0, 6), (6, 0, 6), (6, 0, -6)])
     floor.CreateFaceVertexCountsAttr([4])
     floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
-    light = UsdLux.SphereLight.Define(st, '/World/Light')
-    light.CreateIntensityAttr(300.0)
-    light.CreateRadiusAttr(0.5)
-    light.AddTranslateOp().Set(Gf.Vec3d(2, 4, 3))
+    if not glow:
+        light = UsdLux.SphereLight.Define(st, '/World/Light')
+        light.CreateIntensityAttr(300.0)
+        light.CreateRadiusAttr(0.5)
+        light.AddTranslateOp().Set(Gf.Vec3d(2, 4, 3))
     cam = UsdGeom.Camera.Define(st, '/World/Cam')
     cam.AddTranslateOp().Set(Gf.Vec3d(0, 1.5, 7))
+    cam.CreateShutterOpenAttr(0.0)
+    cam.CreateShutterCloseAttr(1.0 if moving else 0.0)
     if instanced:
         UsdGeom.Xform.Define(st, '/Proto')
     root = '/Proto/Balls' if instanced else '/World/Balls'
@@ -49,12 +58,27 @@ def _stage(cloud: bool, instanced: bool = False) -> Usd.Stage:
             s = UsdGeom.Sphere.Define(st, f'{root}/S{k}')
             s.CreateRadiusAttr(w / 2)
             s.AddTranslateOp().Set(Gf.Vec3d(*c))
+    if glow:
+        mat = UsdShade.Material.Define(st, root + '/Glow')
+        shader = UsdShade.Shader.Define(st, root + '/Glow/Surface')
+        shader.CreateIdAttr('UsdPreviewSurface')
+        shader.CreateInput('emissiveColor', Sdf.ValueTypeNames.Color3f).Set((4.0, 2.5, 1.0))
+        mat.CreateSurfaceOutput().ConnectToSource(shader.ConnectableAPI(), 'surface')
+        for prim in st.GetPrimAtPath(root).GetChildren():
+            if prim.IsA(UsdGeom.Gprim):
+                UsdShade.MaterialBindingAPI.Apply(prim).Bind(mat)
     if instanced:
         for k, x in enumerate((-1.5, 1.5)):
             p = st.DefinePrim(f'/World/B{k}')
             p.GetReferences().AddInternalReference('/Proto')
             p.SetInstanceable(True)
-            UsdGeom.Xformable(p).AddTranslateOp().Set(Gf.Vec3d(x, 0, 0))
+            op = UsdGeom.Xformable(p).AddTranslateOp()
+            op.Set(Gf.Vec3d(x, 0, 0))
+            if moving and k:
+                op.Set(Gf.Vec3d(x, 0, 0), 0.0)
+                op.Set(Gf.Vec3d(x + 0.4, 0.3, 0), 1.0)
+            if squash and k:
+                UsdGeom.Xformable(p).AddScaleOp().Set(Gf.Vec3f(1.0, 0.6, 1.0))
     return st
 
 
@@ -129,25 +153,107 @@ def test_a_point_cloud_renders_as_its_spheres(integrator, instanced):
     assert b.mean() > 0.05 and diff.mean() <= 1e-6 * b.mean() and diff.max() <= 1e-4 * b.max()
 
 
-def test_an_emissive_cloud_is_lit_by_bsdf_rays_and_warned():
-    """An emissive point cloud is not a light of the path integrator (a lone emissive sphere is): its light
-    is found by BSDF-sampled rays alone, with weight 1, and the build says so."""
+def test_an_emissive_cloud_is_a_light_a_point():
+    """Each point of an emissive cloud is a light of the path integrator, at each placement (a lone emissive
+    sphere is one light): their centres and radii in the light table, the balls of a placement consecutive
+    lights, and the hit map giving the cloud's first one (`light_of_hit` adds the primitive)."""
     from rtc.renderer import description as D
     from rtc.renderer.host.build import build
     from rtc.renderer.host.light_selection import path_lights
+    from rtc.renderer.kernel.tables import SLF_CENTER, SLF_RADIUS
     from tests.renderer.handmade import look_at, quad, scene, translate
     glow = D.Material('/glow', model=D.LAMBERTIAN, emission=(1.0, 1.0, 1.0))
-    cloud = D.Sphere(path='/cloud', radius=0.2, matrix=np.eye(4), material=0,
-                     centers=np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0]]), radii=np.array([0.2, 0.1]))
+    centres = np.array([[0.0, 1.0, 0.0], [1.0, 1.0, 0.0], [0.0, 2.0, -1.0]])
+    cloud = D.Sphere(path='/cloud', radius=0.2, matrix=translate(0.5, 0.0, 0.0), material=0,
+                     centers=centres, radii=np.array([0.2, 0.1, 0.3]))
     lone = D.Sphere(path='/lone', radius=0.3, matrix=translate(-1.0, 1.0, 0.0), material=0)
     grey = D.Material('/grey', model=D.LAMBERTIAN)
     desc = scene([D.Container('/', meshes=[quad(6.0, material=1)], spheres=[cloud, lone])], [glow, grey], [],
                  D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))))
     built = build(desc)
     try:
-        with pytest.warns(RuntimeWarning, match='emissive point cloud'):
-            L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
-        assert L.n_surface == 1                         # the lone sphere
-        assert any('1 emissive point cloud' in w for w in desc.warnings)
+        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
+        assert L.n_surface == 4
+        origin = desc.camera.matrix[:3, 3]
+        got = sorted(map(tuple, np.round(np.column_stack([L.sl_f[:4, SLF_CENTER:SLF_CENTER + 3] + origin,
+                                                          L.sl_f[:4, SLF_RADIUS]]), 9)))
+        want = sorted(map(tuple, np.round(np.vstack([np.column_stack([centres + (0.5, 0, 0), [0.2, 0.1, 0.3]]),
+                                                     [[-1.0, 1.0, 0.0, 0.3]]]), 9)))
+        assert got == want
+        cloud_light = L.sl_idx[L.sl_row[0] + 1] - L.surface_first          # (slots: the quad, the cloud, the lone)
+        np.testing.assert_allclose(L.sl_f[cloud_light:cloud_light + 3, SLF_CENTER:SLF_CENTER + 3] + origin,
+                                   centres + (0.5, 0, 0), atol=1e-12)
+        assert not any('point cloud' in w for w in desc.warnings)
     finally:
         built.close()
+
+
+@pytest.mark.parametrize('limit, warned', [(9, False), (8, True)])
+def test_more_than_max_balls_emissive_spheres_are_warned(monkeypatch, limit, warned):
+    """Emissive spheres are lights (~350 bytes and a leaf of the tree each): a scene with more than MAX_BALLS of
+    them (here a 3-point cloud in a prototype placed twice, and itself: 9, against a limit lowered for the test)
+    is warned about."""
+    from rtc.renderer.host import surface_lights as SL
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    monkeypatch.setattr(SL, 'MAX_BALLS', limit)
+    desc = read_stage(_stage(True, instanced=True, glow=True))
+    for c in desc.containers:
+        for s in c.spheres:
+            s.centers, s.radii = s.centers[:3], s.radii[:3]
+    built = build(desc)
+    try:
+        with pytest.warns(RuntimeWarning, match='9 emissive spheres') if warned else contextlib.nullcontext():
+            L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
+        assert L.n_surface == 9
+        assert any('9 emissive spheres' in w for w in desc.warnings) == warned
+    finally:
+        built.close()
+
+
+@pytest.mark.parametrize('case', ['once', 'instanced', 'squashed', 'moving'])
+def test_an_emissive_cloud_lights_as_its_spheres(case):
+    """Lit by emissive balls alone (no other light), the cloud's image equals that of the same balls as
+    emissive UsdGeom.Spheres, each one light (sampled, and MIS-weighted where a BSDF ray finds it): placed
+    once, instanced twice, the second placement squashed (ellipsoid lights), or moving (lights placed at a
+    ray's time).  Drawn by BSDF rays alone (the cloud's light before), the image is far noisier."""
+    kw = dict(instanced=case != 'once', squash=case == 'squashed', moving=case == 'moving', glow=True)
+    images = []
+    for cloud in (True, False):
+        desc = read_stage(_stage(cloud, **kw))
+        desc.lights = []                        # (the reader's default headlight and dome: no UsdLux light)
+        with Renderer(desc, threads=1) as r:
+            images.append(r.render(RenderOptions(width=64, height=48, spp=4, integrator='path', max_depth=3,
+                                                 threads=1)).image)
+    a, b = images
+    diff = np.abs(a.astype(np.float64) - b)
+    assert b.mean() > 0.05 and diff.mean() <= 1e-6 * b.mean() and diff.max() <= 1e-4 * b.max()
+
+
+def test_the_points_example_scene():
+    """scenes/points.usda: the two strings of fairy lights are 27 + 19 lights (a bulb each, of diameter 0.1) beside
+    the DomeLight, the heap of 40 pebbles is placed three times (one prototype), no warning; a small path render
+    of it lit by the bulbs alone is finite and lit."""
+    from pathlib import Path
+    from rtc.renderer import description as D
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    from rtc.renderer.kernel.tables import SLF_RADIUS
+    desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'points.usda'))
+    assert [l.type for l in desc.lights] == [D.DOME] and not desc.warnings
+    clouds = {s.path: s for c in desc.containers for s in c.spheres if s.centers is not None}
+    assert {p: len(s.centers) for p, s in clouds.items()} == {
+        '/World/FairyLights/Back': 27, '/World/FairyLights/Front': 19, '/__Prototype_1/Stones': 40}
+    stones = [k for k, c in enumerate(desc.containers) if any(s.path.endswith('/Stones') for s in c.spheres)]
+    assert len(stones) == 1 and np.count_nonzero(desc.instances.container == stones[0]) == 3
+    built = build(desc)
+    try:
+        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups), data=built.data)
+        assert L.n_surface == 46 and L.surface_first == 1 and L.depth[0] < 0 and (L.depth[1:47] >= 0).all()
+        np.testing.assert_allclose(L.sl_f[:46, SLF_RADIUS], 0.05, rtol=1e-6)
+    finally:
+        built.close()
+    desc.lights = []                                     # the bulbs alone (and the kernels of the tests above)
+    with Renderer(desc, threads=1) as r:
+        img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2, threads=1)).image
+    assert np.isfinite(img).all() and img.mean() > 0.02
