@@ -12,16 +12,18 @@ bounds on the cosines at the light and at the receiver (`kernel/light_tree.py`),
 facing away or below the horizon is rarely chosen, whatever its power.  Lights without a position
 (dome, distant) are chosen uniformly with probability n / (n + 1) (n of them; the tree the rest).
 
-Split: the lights are cut at the median of their centres along the longest axis of the centres'
-box (a balanced binary tree: depth log2 n).  Each light's path from the root is kept as a bit trail,
-so that the probability of a given light at a given point (MIS of BSDF-sampled rays that hit it) is
-one walk down that path.  The tree is stored in *blocks* of three levels: the 14 nodes below a node
-(its children, grandchildren and great-grandchildren), whose importances the kernel computes in one
-vectorised loop (float32: sixteen lanes) before it takes the three binary steps through them (1000
-lights: 4 loops instead of 20 importances one by one; `benchmarks/RESULTS.md`, "Many lights").  The
-choices are the binary tree's: nodes of eight children chosen among directly were faster still but
-measured 7-11 % more noise at equal samples (the importance of a small cluster is a looser guess
-than the binary walk's, which weighs it with its parents' bounds).
+Split: the lights are cut at the median of their centres along the longest axis of the centres' box (a
+balanced binary tree: depth log2 n).  Each light's path from the root is kept as a bit trail, so that the
+probability of a given light at a given point (MIS of BSDF-sampled rays that hit it) is one walk down
+that path.  The build sorts every node of a level at once (`median_order`) and bounds them with numpy's
+reductions over their runs of lights (`_node_bounds`; the cones folded by a compiled loop in large
+trees): 200,000 lights in ~3 s (`benchmarks/RESULTS.md`).  The tree is stored in *blocks* of three
+levels: the 14 nodes below a node (its children, grandchildren and great-grandchildren), whose
+importances the kernel computes in one vectorised loop (float32: sixteen lanes) before it takes the three
+binary steps through them (1000 lights: 4 loops instead of 20 importances one by one;
+`benchmarks/RESULTS.md`, "Many lights").  The choices are the binary tree's: nodes of eight children
+chosen among directly were faster still but measured 7-11 % more noise at equal samples (the importance
+of a small cluster is a looser guess than the binary walk's, which weighs it with its parents' bounds).
 
 Arrays (the `PathLights` fields `tree_f`, `tree_i`, `trail`, `depth`, `unbounded`):
   tree_f float32 (blocks, tables.LIGHT_TREE * TREE_SLOTS): the bounds of each slot of a block -
@@ -38,6 +40,7 @@ from __future__ import annotations
 
 import math
 
+import numba as nb
 import numpy as np
 
 from .. import description as D
@@ -45,30 +48,63 @@ from ..kernel.tables import LF_LENGTH, LF_M, LF_RADIUS, LIGHT_TREE, TREE_LEVELS,
 ENTIRE = (np.array([0.0, 0.0, 1.0]), -1.0)          # the cone of every direction
 
 
-def _angle(a, b):
-    return math.acos(max(-1.0, min(1.0, float(np.dot(a, b)))))
-
-
 def cone_union(a, b):
     """The smallest cone (axis, cos half-angle) holding the cones a and b (pbrt's DirectionCone Union)."""
     (wa, ca), (wb, cb) = a, b
+    *w, c = _cone_union.py_func(float(wa[0]), float(wa[1]), float(wa[2]), float(ca), float(wb[0]), float(wb[1]),
+                                float(wb[2]), float(cb))
+    return np.array(w), c
+
+
+@nb.njit(cache=True)
+def _cone_union(a0, a1, a2, ca, b0, b1, b2, cb):
+    """`cone_union` of the cones of unit axes a, b and cos half-angles ca, cb: (axis, cos half-angle)."""
     ta, tb = math.acos(max(-1.0, min(1.0, ca))), math.acos(max(-1.0, min(1.0, cb)))
-    td = _angle(wa, wb)
+    td = math.acos(max(-1.0, min(1.0, a0 * b0 + a1 * b1 + a2 * b2)))
     if min(td + tb, math.pi) <= ta:
-        return a
+        return a0, a1, a2, ca
     if min(td + ta, math.pi) <= tb:
-        return b
+        return b0, b1, b2, cb
     to = 0.5 * (ta + td + tb)
-    if to >= math.pi:
-        return ENTIRE
-    axis = np.cross(wa, wb)
-    n = float(np.linalg.norm(axis))
-    if n == 0.0:
-        return ENTIRE
-    axis /= n
-    tr = to - ta                                      # rotate wa by tr about axis (Rodrigues)
-    w = wa * math.cos(tr) + np.cross(axis, wa) * math.sin(tr) + axis * float(np.dot(axis, wa)) * (1 - math.cos(tr))
-    return w / np.linalg.norm(w), math.cos(to)
+    x0, x1, x2 = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    n = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+    if to >= math.pi or n == 0.0:
+        return 0.0, 0.0, 1.0, -1.0                    # ENTIRE
+    x0, x1, x2 = x0 / n, x1 / n, x2 / n
+    tr = to - ta                                      # rotate a by tr about x (Rodrigues)
+    c, s = math.cos(tr), math.sin(tr)
+    d = (x0 * a0 + x1 * a1 + x2 * a2) * (1.0 - c)
+    w0 = a0 * c + (x1 * a2 - x2 * a1) * s + x0 * d
+    w1 = a1 * c + (x2 * a0 - x0 * a2) * s + x1 * d
+    w2 = a2 * c + (x0 * a1 - x1 * a0) * s + x2 * d
+    m = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+    return w0 / m, w1 / m, w2 / m, math.cos(to)
+
+
+@nb.njit(cache=True)
+def _fold_cones(w, cos_o, order, first, size, out):
+    """The cone of each run (its lights order[first:first + size]): `cone_union` folded over them in order,
+    into out (runs, 4: axis, cos half-angle)."""
+    for r in range(len(first)):
+        k = order[first[r]]
+        a0, a1, a2, ca = w[k, 0], w[k, 1], w[k, 2], cos_o[k]
+        for j in range(first[r] + 1, first[r] + size[r]):
+            k = order[j]
+            a0, a1, a2, ca = _cone_union(a0, a1, a2, ca, w[k, 0], w[k, 1], w[k, 2], cos_o[k])
+        out[r, 0], out[r, 1], out[r, 2], out[r, 3] = a0, a1, a2, ca
+
+
+FOLD_COMPILED = 50_000      # unions above which `_fold_cones` runs compiled (its first call loads it: ~0.15 s)
+
+
+def _fold_cones_python(w, cos_o, order, first, size, out):
+    """`_fold_cones` in Python (`cone_union`, the same operations: the same values), for trees too small to
+    repay loading the compiled one."""
+    for r, (f, m) in enumerate(zip(first, size)):
+        cone = (w[order[f]], cos_o[order[f]])
+        for k in order[f + 1:f + m]:
+            cone = cone_union(cone, (w[k], cos_o[k]))
+        out[r] = (*cone[0], cone[1])
 
 
 def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
@@ -101,87 +137,119 @@ def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
     return idx, bounds
 
 
-def _union(items):
-    lo = np.min([b[0] for b in items], 0)
-    hi = np.max([b[1] for b in items], 0)
-    cone = items[0][3]
-    for b in items[1:]:
-        cone = cone_union(cone, b[3])
-    return lo, hi, sum(b[2] for b in items), cone, any(b[4] for b in items)
+def median_order(centres: np.ndarray) -> tuple[np.ndarray, list]:
+    """(the leaves of the balanced binary tree over lights with these centres (n, 3), in its order; its inner
+    nodes, a (start, size) pair of arrays a level): each node's lights are cut at the median of their centres
+    along the longest axis of the centres' box (the first half, n // 2 lights, its first child), sorted stably,
+    so that ties keep the order the parent had; one level of the tree at a time, each a sort of every node's
+    lights at once.  A node is a run of this order: (start, n) has the children (start, n // 2) and
+    (start + n // 2, n - n // 2); a run of one is a leaf."""
+    order = np.arange(len(centres))
+    start, size = np.zeros(1, np.int64), np.array([len(centres)])
+    levels = []
+    while True:
+        start, size = start[size > 1], size[size > 1]
+        if not len(start):
+            return order, levels
+        levels.append((start, size))
+        run, pos, first = _runs(start, size)
+        c = centres[order[pos]]
+        axis = np.argmax(np.maximum.reduceat(c, first) - np.minimum.reduceat(c, first), 1)
+        order[pos] = order[pos[np.lexsort((c[np.arange(len(pos)), axis[run]], run))]]
+        half = size // 2
+        start, size = np.concatenate([start, start + half]), np.concatenate([half, size - half])
 
 
-def _record(b) -> np.ndarray:
-    """The LIGHT_TREE fields of bounds b = (lo, hi, phi, (w, cos_o), two_sided)."""
-    lo, hi, phi, (w, cos_o), two = b
-    rec = np.zeros(LIGHT_TREE.width)
-    sin_o = math.sqrt(max(0.0, 1.0 - cos_o * cos_o))
-    LIGHT_TREE.write(rec, C=0.5 * (lo + hi), RADIUS=0.5 * float(np.linalg.norm(hi - lo)), PHI=phi, W=w, COS_O=cos_o,
-                     SIN_O=math.copysign(sin_o, -1.0 if two else 1.0))
-    return rec
+def _runs(start: np.ndarray, size: np.ndarray):
+    """(each element's run, its position in the order, each run's first element in `pos`) of disjoint runs."""
+    first = np.cumsum(size) - size
+    run = np.repeat(np.arange(len(start)), size)
+    return run, start[run] + np.arange(int(size.sum())) - first[run], first
 
 
-def _binary(items: list[int], bounds: list):
-    """The balanced binary tree over `items` (indices into bounds): an int for a leaf, else (left,
-    right): split at the median of the centres along the longest axis of their box."""
-    if len(items) == 1:
-        return items[0]
-    centres = np.array([0.5 * (bounds[j][0] + bounds[j][1]) for j in items])
-    axis = int(np.argmax(centres.max(0) - centres.min(0)))
-    order = [items[j] for j in np.argsort(centres[:, axis], kind='stable')]
-    half = len(order) // 2
-    return _binary(order[:half], bounds), _binary(order[half:], bounds)
-
-
-def _leaves(t) -> list[int]:
-    return [t] if isinstance(t, int) else _leaves(t[0]) + _leaves(t[1])
-
-
-def _height(t) -> int:
-    return 0 if isinstance(t, int) else 1 + max(_height(t[0]), _height(t[1]))
+def _node_bounds(bounds: list, order: np.ndarray, levels: list) -> tuple[np.ndarray, dict]:
+    """(LIGHT_TREE records of the lights (rows 0..n-1, `bounds` order) and of the inner nodes after them,
+    {(start, size): row} of the inner nodes) - a node's box and two-sidedness its lights', its phi their sum, its
+    cone their cones' union folded in the tree's order (`_fold_cones`: folded one light at a time, a cone stays
+    tighter than the union of its children's unions; measured in `benchmarks/RESULTS.md`); a level of the tree
+    at a time, numpy's reductions over its nodes' runs of `order`."""
+    n = len(bounds)
+    lo = np.array([b[0] for b in bounds], np.float64).reshape(n, 3)
+    hi = np.array([b[1] for b in bounds], np.float64).reshape(n, 3)
+    phi = np.array([b[2] for b in bounds], np.float64)
+    w = np.array([b[3][0] for b in bounds], np.float64).reshape(n, 3)
+    cos_o = np.array([b[3][1] for b in bounds], np.float64)
+    two = np.array([bool(b[4]) for b in bounds])
+    parts, rows = [(lo, hi, phi, w, cos_o, two)], {}
+    fold = _fold_cones if sum(int(size.sum()) for _, size in levels) > FOLD_COMPILED else _fold_cones_python
+    for start, size in levels:
+        run, pos, first = _runs(start, size)
+        k = order[pos]
+        cones = np.empty((len(start), 4))
+        fold(w, cos_o, order, start, size, cones)
+        parts.append((np.minimum.reduceat(lo[k], first), np.maximum.reduceat(hi[k], first),
+                      np.add.reduceat(phi[k], first), cones[:, :3], cones[:, 3],
+                      np.logical_or.reduceat(two[k], first)))
+        base = n + sum(len(p[2]) for p in parts[1:-1])
+        rows.update(zip(zip(start.tolist(), size.tolist()), range(base, base + len(start))))
+    lo, hi, phi, w, cos_o, two = (np.concatenate(x) for x in zip(*parts))
+    sin_o = np.sqrt(np.maximum(0.0, 1.0 - cos_o * cos_o)) * np.where(two, -1.0, 1.0)
+    rec = np.zeros((len(phi), LIGHT_TREE.width))
+    for name, v in (('C', 0.5 * (lo + hi)), ('RADIUS', 0.5 * np.linalg.norm(hi - lo, axis=1)), ('PHI', phi), ('W', w),
+                    ('COS_O', cos_o), ('SIN_O', sin_o)):
+        rec[:, LIGHT_TREE.offset[name]:LIGHT_TREE.offset[name] + LIGHT_TREE.widths[name]] = v.reshape(len(phi), -1)
+    return rec, rows
 
 
 def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray, dict]:
     """(tree_f, tree_i, {light: (trail, depth)}) of the balanced binary tree over `bounds` (one per
-    light, `_binary`), stored in blocks of TREE_LEVELS levels (`tables.LIGHT_TREE`): a block holds the
+    light, `median_order`), stored in blocks of TREE_LEVELS levels (`tables.LIGHT_TREE`): a block holds the
     nodes below its root node down to TREE_LEVELS levels (the root block fewer, so that the deepest
     blocks are full), so that the kernel computes their importances in one vectorised loop and walks
-    the levels from them.  tree_f (blocks, LIGHT_TREE.width * TREE_SLOTS): each slot's bounds,
-    field-major; tree_i (blocks, TREE_SLOTS): -1 - light for a leaf, for a node in the block's last
-    level the block (> 0) it is the root of, 0 for the block's other nodes, -1 for an empty slot (phi
-    0: never chosen).  A light's trail has bit d set where its way takes the second child at depth d;
-    its depth is the number of binary choices on that way (a lone light: 1, between it and an empty
-    slot)."""
-    rows_f, rows_i, leaves = [], [], {}
+    the levels from them.  tree_f (blocks, LIGHT_TREE.width * TREE_SLOTS): each slot's bounds
+    (`_node_bounds`), field-major; tree_i (blocks, TREE_SLOTS): -1 - light for a leaf, for a node in the
+    block's last level the block (> 0) it is the root of, 0 for the block's other nodes, -1 for an empty
+    slot (phi 0: never chosen).  A light's trail has bit d set where its way takes the second child at
+    depth d; its depth is the number of binary choices on that way (a lone light: 1, between it and an
+    empty slot)."""
+    if not lights:
+        return np.zeros((0, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.zeros((0, TREE_SLOTS), np.int64), {}
+    order, levels = median_order(0.5 * (np.array([b[0] for b in bounds]) + np.array([b[1] for b in bounds])))
+    records, inner = _node_bounds(bounds, order, levels)
+    rows_i, placed, leaves = [], [], {}
 
-    def block(t, trail, depth, levels):
-        b = len(rows_f)
-        row_f = np.zeros((LIGHT_TREE.width, TREE_SLOTS))            # (empty slots: phi 0)
+    def block(start, size, trail, depth, levels):
+        """A new block whose root is the run (start, size): its index."""
+        b = len(rows_i)
         row_i = np.full(TREE_SLOTS, -1, np.int64)
-        rows_f.append(row_f)
         rows_i.append(row_i)
 
-        def fill(slot, node, level, trail, depth):                   # node: at binary depth `depth`
-            items = _leaves(node)
-            row_f[:, slot] = _record(_union([bounds[k] for k in items]) if len(items) > 1 else bounds[items[0]])
-            if isinstance(node, int):
-                row_i[slot] = -1 - lights[node]
-                leaves[lights[node]] = (trail, depth)
-            elif level == levels - 1:
-                row_i[slot] = block(node, trail, depth, TREE_LEVELS)
-            else:
-                row_i[slot] = 0
-                fill(2 * slot + 2, node[0], level + 1, trail, depth + 1)
-                fill(2 * slot + 3, node[1], level + 1, trail | (1 << depth), depth + 1)
+        def fill(slot, start, size, level, trail, depth):          # the run's node: at binary depth `depth`
+            if size == 1:
+                k = int(order[start])
+                row_i[slot], leaves[lights[k]] = -1 - lights[k], (trail, depth)
+                placed.append((b, slot, k))
+                return
+            placed.append((b, slot, inner[start, size]))
+            if level == levels - 1:
+                row_i[slot] = block(start, size, trail, depth, TREE_LEVELS)
+                return
+            row_i[slot], h = 0, size // 2
+            fill(2 * slot + 2, start, h, level + 1, trail, depth + 1)
+            fill(2 * slot + 3, start + h, size - h, level + 1, trail | (1 << depth), depth + 1)
 
-        kids = (t,) if isinstance(t, int) else t                     # (a lone light: one child)
-        for j, c in enumerate(kids):
-            fill(j, c, 0, trail | (j << depth), depth + 1)
+        h = size // 2                                                # (a lone light: one child)
+        kids = ((start, 1),) if size == 1 else ((start, h), (start + h, size - h))
+        for j, (s, m) in enumerate(kids):
+            fill(j, s, m, 0, trail | (j << depth), depth + 1)
         return b
 
-    if lights:
-        root = _binary(list(range(len(lights))), bounds)
-        block(root, 0, 0, (max(_height(root), 1) - 1) % TREE_LEVELS + 1)
-    return (np.array([r.reshape(-1) for r in rows_f], np.float32).reshape(-1, LIGHT_TREE.width * TREE_SLOTS),
+    height = (len(lights) - 1).bit_length()                        # ceil(log2 n)
+    block(0, len(lights), 0, 0, (max(height, 1) - 1) % TREE_LEVELS + 1)
+    tree_f = np.zeros((len(rows_i), LIGHT_TREE.width, TREE_SLOTS))   # (empty slots: phi 0)
+    b, slot, node = np.array(placed).T
+    tree_f[b, :, slot] = records[node]
+    return (tree_f.astype(np.float32).reshape(-1, LIGHT_TREE.width * TREE_SLOTS),
             np.array(rows_i, np.int64).reshape(-1, TREE_SLOTS), leaves)
 
 

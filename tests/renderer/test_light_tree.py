@@ -324,3 +324,76 @@ def test_a_lone_light_is_the_trees_choice_wherever_it_can_light_the_vertex(light
 
 def test_two_lights_are_not_lone(lights):
     assert lone_light(lights) == -1
+
+
+def _median_tree(items, centres):
+    """An independent reference of the tree `median_order` builds: recursively, a node's lights sorted stably by
+    their centres along the longest axis of the centres' box, its first n // 2 the first child's."""
+    if len(items) == 1:
+        return items[0]
+    c = centres[items]
+    axis = int(np.argmax(c.max(0) - c.min(0)))
+    items = [items[j] for j in np.argsort(c[:, axis], kind='stable')]
+    h = len(items) // 2
+    return _median_tree(items[:h], centres), _median_tree(items[h:], centres)
+
+
+def _flat(t):
+    return [t] if isinstance(t, int) else _flat(t[0]) + _flat(t[1])
+
+
+@pytest.mark.parametrize('n', [1, 2, 3, 7, 100, 1001])
+def test_median_order_is_the_median_split_tree(n):
+    """`median_order`, sorting every node of a level at once, gives the leaves of the recursive median split in
+    its order, its inner nodes as the runs (start, size) of that order, level by level (centres on a coarse grid:
+    ties, which keep their parent's order)."""
+    from rtc.renderer.host.light_tree import median_order
+    centres = np.round(np.random.default_rng(n).uniform(-3, 3, (n, 3)))
+    order, levels = median_order(centres)
+    ref = _median_tree(list(range(n)), centres)
+    assert order.tolist() == _flat(ref)
+    runs, frontier = [], [(0, ref)]
+    while frontier:                                   # the reference's inner nodes, level by level
+        inner = [(s, t) for s, t in frontier if not isinstance(t, int)]
+        if inner:
+            runs.append(sorted((s, len(_flat(t))) for s, t in inner))
+        frontier = [(s + k * len(_flat(t[0])), t[k]) for s, t in inner for k in (0, 1)]
+    assert [sorted(zip(a.tolist(), b.tolist())) for a, b in levels] == runs
+
+
+def test_every_node_bounds_the_lights_below_it():
+    """Each inner node of a tree of 1,200 lights - rects facing every way, some two-sided, and points -: its box
+    holds its lights' boxes, its phi is their sum, its cone holds each of their cones (the angle from its axis to
+    theirs plus their half-angle at most its half-angle), it is two-sided where one of them is; the compiled fold
+    of the cones (`_fold_cones`, for trees above FOLD_COMPILED unions) equals the Python one bit for bit."""
+    from rtc.renderer.host import light_tree as T
+    rng = np.random.default_rng(11)
+    n = 1200
+    lo = rng.uniform(-10, 10, (n, 3))
+    w = rng.normal(size=(n, 3)) * 0.6 + (0.0, -1.0, 0.0)
+    w /= np.linalg.norm(w, axis=1)[:, None]
+    bounds = [(lo[k], lo[k] + 0.3, float(rng.uniform(0.1, 2.0)), (w[k], 1.0), k % 5 == 0) for k in range(n)]
+    for k in range(0, n, 7):                          # points among them: their ancestors emit everywhere
+        bounds[k] = (lo[k], lo[k], bounds[k][2], ENTIRE, False)
+    order, levels = T.median_order(0.5 * (lo + np.array([b[1] for b in bounds])))
+    rec, rows = T._node_bounds(bounds, order, levels)
+    assert len(rec) == 2 * n - 1 and sum(int(s.sum()) for _, s in levels) < T.FOLD_COMPILED   # (folded in Python)
+    for start, size in levels:
+        for s, m in zip(start.tolist(), size.tolist()):
+            r, ks = rec[rows[s, m]], order[s:s + m]
+            box_lo, box_hi = np.min([bounds[k][0] for k in ks], 0), np.max([bounds[k][1] for k in ks], 0)
+            np.testing.assert_allclose(r[T_C:T_C + 3], 0.5 * (box_lo + box_hi), rtol=1e-12, atol=1e-12)
+            assert r[T_RADIUS] == pytest.approx(0.5 * np.linalg.norm(box_hi - box_lo), rel=1e-12)
+            assert r[T_PHI] == pytest.approx(sum(bounds[k][2] for k in ks), rel=1e-12)
+            assert (math.copysign(1.0, r[T_SIN_O]) < 0) == any(bounds[k][4] for k in ks)
+            if r[T_COS_O] > -1.0:
+                for k in ks:
+                    wk, ck = bounds[k][3]
+                    apart = math.acos(min(1.0, float(np.dot(r[T_W:T_W + 3], wk))))
+                    assert apart + math.acos(ck) <= math.acos(r[T_COS_O]) + 1e-9
+        axes, cos_o = np.array([b[3][0] for b in bounds]), np.array([b[3][1] for b in bounds])
+        compiled, python = np.empty((len(start), 4)), np.empty((len(start), 4))
+        T._fold_cones(axes, cos_o, order, start, size, compiled)
+        T._fold_cones_python(axes, cos_o, order, start, size, python)
+        assert np.array_equal(compiled, python)
+    assert np.count_nonzero(rec[n:, T_COS_O] > -1.0) > 100       # (cones to check: not every node's is ENTIRE)
