@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import csv
 import hashlib
-import math
 import os
 from dataclasses import asdict, dataclass, replace
 from pathlib import Path

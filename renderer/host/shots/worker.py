@@ -17,7 +17,6 @@ cores (`job.threads` render threads).
 """
 from __future__ import annotations
 
-import os
 import threading
 import time as _time
 from dataclasses import dataclass
