@@ -34,6 +34,8 @@ class Mesh:
                                        # (leftHanded orientation and mirrored transforms already fixed)
     normals: Optional[np.ndarray] = None   # float32 (m, 3, 3) per-corner shading normals, container space, unit
     uvs: Optional[np.ndarray] = None       # float32 (m, 3, 2) per-corner texture coordinates (primvars:st)
+    colors: Optional[np.ndarray] = None    # float32 (m, 3, 3) per-corner primvars:displayColor where it varies
+                                           # over the mesh (a material with vertex_colors multiplies its diffuse)
     material: int = -1                 # default material index (binding inside the container), -1 = none
     double_sided: bool = True
 
@@ -134,6 +136,7 @@ class Material:
     diffuse_texture: int = -1               # index into SceneDescription.textures (multiplies diffuse)
     specular_texture: int = -1
     emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)
+    vertex_colors: bool = False             # diffuse times the gprim's per-corner displayColor (Mesh.colors)
     # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
 
 

@@ -22,12 +22,12 @@ import numpy as np
 from .. import description as D
 from .embree import Device, InstanceGroup
 from ..kernel.trace import MASK_SURFACES
-from ..kernel.tables import (GP_CLOUD, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F, MATERIAL_F, MATERIAL_I,
-                             TEXTURE_F, TEXTURE_I, WRAP)
+from ..kernel.tables import (GP_CLOUD, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F,
+                             MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, WRAP)
 
 SceneData = namedtuple('SceneData', [
-    'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off',
-    'tri_v', 'tri_n', 'tri_uv', 'sph',
+    'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off', 'gp_c_off',
+    'tri_v', 'tri_n', 'tri_uv', 'tri_c', 'sph',
     'pr_gp_start', 'pr_geom_off', 'pr_geom_gp',
     'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
     'mat_i', 'mat_f',
@@ -150,8 +150,10 @@ class _Tables:
 
     def __init__(self):
         self.kind, self.off, self.flags, self.material, self.n_off, self.uv_off = [], [], [], [], [], []
+        self.c_off, self.tri_c = [], []
         self.tri_v, self.tri_n, self.tri_uv, self.sph = [], [], [], []
-        self.n_tri = self.n_nrm = self.n_uv = 0
+        self.n_tri = 0
+        self._rows = {}                    # per-corner table -> rows so far
 
     def add_mesh(self, v32: np.ndarray, tris: np.ndarray, m: D.Mesh) -> None:
         flags = 0
@@ -159,20 +161,16 @@ class _Tables:
         self.off.append(self.n_tri)
         self.material.append(m.material)
         self.tri_v.append(v32[tris])
-        if m.normals is not None:
-            flags |= GP_HAS_NORMALS
-            self.n_off.append(self.n_nrm)
-            self.tri_n.append(np.asarray(m.normals, np.float32))
-            self.n_nrm += len(tris)
-        else:
-            self.n_off.append(-1)
-        if m.uvs is not None:
-            flags |= GP_HAS_UVS
-            self.uv_off.append(self.n_uv)
-            self.tri_uv.append(np.asarray(m.uvs, np.float32))
-            self.n_uv += len(tris)
-        else:
-            self.uv_off.append(-1)
+        for values, flag, offsets, table in ((m.normals, GP_HAS_NORMALS, self.n_off, self.tri_n),
+                                             (m.uvs, GP_HAS_UVS, self.uv_off, self.tri_uv),
+                                             (m.colors, GP_HAS_COLORS, self.c_off, self.tri_c)):
+            if values is None:                 # per-corner values: a row a triangle, from the gprim's offset
+                offsets.append(-1)
+                continue
+            flags |= flag
+            offsets.append(self._rows.get(id(table), 0))
+            table.append(np.asarray(values, np.float32))
+            self._rows[id(table)] = offsets[-1] + len(tris)
         self.flags.append(flags)
         self.n_tri += len(tris)
 
@@ -185,6 +183,7 @@ class _Tables:
         self.flags.append(GP_HAS_UVS | (GP_CLOUD if center_radius is not None and len(center_radius) > 1 else 0))
         self.n_off.append(-1)
         self.uv_off.append(-1)
+        self.c_off.append(-1)
         if center_radius is None:
             self.off.append(-1)
         else:
@@ -204,7 +203,7 @@ def _material_tables(materials: list[D.Material]):
     mat_f = np.zeros((len(mats), MATERIAL_F.width), np.float32)
     for k, m in enumerate(mats):
         MATERIAL_I.write(mat_i[k], MODEL=m.model, DIFFUSE_TEX=m.diffuse_texture, SPECULAR_TEX=m.specular_texture,
-                         EMISSION_TEX=m.emission_texture)
+                         EMISSION_TEX=m.emission_texture, VERTEX_COLOR=int(m.vertex_colors))
         MATERIAL_F.write(mat_f[k], KD=m.diffuse, KS=m.specular, EXP=m.exponent, MIRROR=m.mirror_coef,
                          ROUGH=m.roughness, IOR=m.ior, ATTEN=m.attenuation, EMIT=m.emission, METAL=m.metallic,
                          OPACITY=m.opacity, SPECWF=1.0 if m.use_specular_workflow else 0.0,
@@ -559,8 +558,9 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         gp_kind=np.array(tables.kind, np.int32), gp_off=np.array(tables.off, np.int64),
         gp_flags=np.array(tables.flags, np.int32), gp_material=gp_material,
         gp_n_off=np.array(tables.n_off, np.int64), gp_uv_off=np.array(tables.uv_off, np.int64),
+        gp_c_off=np.array(tables.c_off, np.int64),
         tri_v=_cat(tables.tri_v, (1, 3, 3), np.float32), tri_n=_cat(tables.tri_n, (1, 3, 3), np.float32),
-        tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32),
+        tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32), tri_c=_cat(tables.tri_c, (1, 3, 3), np.float32),
         sph=np.array(tables.sph, np.float64).reshape(-1, 4) if tables.sph else np.zeros((1, 4)),
         pr_gp_start=np.array(pr_gp_start, np.int64), pr_geom_off=geom_off,
         pr_geom_gp=np.array([g for gs in pr_geom for g in gs] or [0], np.int64),

@@ -14,8 +14,9 @@ import numpy as np
 
 from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
-from ..kernel.tables import (C_LENS, C_ORTHO, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LF_COURSE, MF_CLEARCOAT, MF_EMIT,
-                             MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SPECULAR_TEX)
+from ..kernel.tables import (C_LENS, C_ORTHO, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LF_COURSE,
+                             MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
+                             MI_SPECULAR_TEX, MI_VERTEX_COLOR)
 
 
 def general_kernels() -> bool:
@@ -56,5 +57,6 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),
         spheres=bool(np.any(data.gp_kind == GP_SPHERE)),
         normals=bool(np.any(mesh_flags & GP_HAS_NORMALS)), uvs=bool(np.any(mesh_flags & GP_HAS_UVS)),
+        colors=bool(np.any(mesh_flags & GP_HAS_COLORS) and np.any(mi[:, MI_VERTEX_COLOR] != 0)),
         xf_motion=data.in_xf.shape[1] > 1, ortho=bool(ctab[C_ORTHO] != 0.0), lens=bool(ctab[C_LENS] > 0.0),
         time=bool(use_time))

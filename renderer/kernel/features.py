@@ -64,6 +64,7 @@ class Features:
     spheres: bool            # an implicit sphere gprim
     normals: bool            # a mesh with shading normals
     uvs: bool                # a mesh with texture coordinates
+    colors: bool             # a mesh with per-corner displayColor whose material shades by it
     xf_motion: bool          # placements with more than one transform step
     ortho: bool              # the camera is orthographic
     lens: bool               # the lens is sampled (depth of field)
@@ -92,7 +93,7 @@ class Features:
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True, lux_lights=True, dome_texture=True,
                light_shapes=True, surface_lights=True, textures=True, opacity=True, emission=True, clearcoat=True, spheres=True,
-               normals=True, uvs=True, xf_motion=True, ortho=True, lens=True, time=True)
+               normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

@@ -34,8 +34,8 @@ import numpy as np
 from .. import description as D
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import bsdf_dim, choice_dim, light_dim
-from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_EMISSION, F_MODELS,
-                       F_OPACITY, F_SAMPLERS)
+from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
+                       F_MODELS, F_OPACITY, F_SAMPLERS)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
@@ -44,8 +44,8 @@ from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
-from .shapes import surface
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL
+from .shapes import corner_color, surface
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL, MI_VERTEX_COLOR
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
                     intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
@@ -203,7 +203,8 @@ def _shading_point(S, tr, ray, time):
     """The `ShadingPoint` of the ray's hit (in the tracer's ray buffer), its normals turned towards
     the viewer (front: the ray hit the outside), with the material's colours there."""
     dvec = ray.d
-    p, ng, ns, st, g, mat = surface(S, tr.scene, hit_of(tr.f, tr.u), ray.o, dvec, time, tr.m, tr.m32)
+    hit = hit_of(tr.f, tr.u)
+    p, ng, ns, st, g, mat = surface(S, tr.scene, hit, ray.o, dvec, time, tr.m, tr.m32)
     model = S.mat_i[mat, MI_MODEL]
     front = dot(ng, dvec) < 0.0
     if not front:
@@ -213,6 +214,9 @@ def _shading_point(S, tr, ray, time):
         ns = ng
     wo = (-dvec[0], -dvec[1], -dvec[2])
     kd, ks = colors(S, mat, st)
+    if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] != 0:        # (the displayColor fallback of a mesh)
+        c = corner_color(S, g, hit)
+        kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
     return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks)
 
 

@@ -18,7 +18,8 @@ import numba as nb
 
 from .features import F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
-from .tables import GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_SPECULAR_TEX
+from .tables import (GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX,
+                     MI_SPECULAR_TEX)
 from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
@@ -42,6 +43,21 @@ def triangle_st(S, g, prim_id, bu, bv):
         return (w0 * uv[k, 0, 0] + bu * uv[k, 1, 0] + bv * uv[k, 2, 0],
                 w0 * uv[k, 0, 1] + bu * uv[k, 1, 1] + bv * uv[k, 2, 1])
     return bu, bv
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def corner_color(S, g, hit):
+    """The displayColor of mesh gprim g at `hit` (a `records.Hit`): its triangle's corner colours (`Mesh.colors`)
+    interpolated at the hit's barycentrics, as `triangle_st` interpolates texture coordinates; white where the
+    gprim has none."""
+    if S.gp_flags[g] & GP_HAS_COLORS:
+        k = S.gp_c_off[g] + hit.prim_id
+        c = S.tri_c
+        w0 = 1.0 - hit.u - hit.v
+        return (w0 * c[k, 0, 0] + hit.u * c[k, 1, 0] + hit.v * c[k, 2, 0],
+                w0 * c[k, 0, 1] + hit.u * c[k, 1, 1] + hit.v * c[k, 2, 1],
+                w0 * c[k, 0, 2] + hit.u * c[k, 1, 2] + hit.v * c[k, 2, 2])
+    return 1.0, 1.0, 1.0
 
 
 @nb.njit(**SHADING_INLINE_JIT)

@@ -154,6 +154,23 @@ def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
     return None
 
 
+def varying_display_color(prim: Usd.Prim, time):
+    """(values (k, 3), interpolation) of a Mesh's own primvars:displayColor where it varies over the mesh (an
+    interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh keeps its
+    colours per triangle corner (`Mesh.colors`), which a material fallback shades by (`materials.fallback`: its
+    one test of the same prim, so that the two agree)."""
+    if not prim.IsA(UsdGeom.Mesh):
+        return None
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
+    if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
+        return None
+    values = flattened(pv, time, lambda message: None, '')      # (unreadable: `fallback` warns)
+    v = np.asarray([] if values is None else values, np.float64)
+    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 2 or not np.all(np.isfinite(v)) or np.all(v == v[0]):
+        return None
+    return v, pv.GetInterpolation()
+
+
 def uv_primvar(prim: Usd.Prim):
     """The texture-coordinate primvar: `st`, else `UVMap` (Blender), else the first
     texCoord2f[] primvar."""
@@ -212,9 +229,17 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
             if uvs is None:
                 warn(f'{path}: primvars:{st.GetPrimvarName()}: {len(values)} values do not match '
                      f'interpolation "{st.GetInterpolation()}"; texture coordinates ignored')
+    colors = None
+    varying = varying_display_color(prim, time)
+    if varying is not None:
+        colors = _per_corner(varying[0], varying[1], face, corner, indices, len(points), len(counts))
+        if colors is None:
+            warn(f'{path}: primvars:displayColor: {len(varying[0])} values do not match interpolation '
+                 f'"{varying[1]}"; their mean colour used')
+            colors = np.broadcast_to(varying[0].mean(0), (len(face), 3, 3)).copy()
     smooth = normals is None and (dropped or mesh.GetSubdivisionSchemeAttr().Get(time) not in (
         UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear))
-    whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim))
+    whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim), colors)
 
     # split by materialBind subsets: one record per subset (+ the faces in none of them)
     subsets = UsdGeom.Subset.GetGeomSubsets(mesh, UsdGeom.Tokens.face, MATERIAL_BIND_FAMILY)
@@ -231,7 +256,8 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
                               whole.triangles[sel],
                               None if whole.normals is None else whole.normals[sel],
                               None if whole.uvs is None else whole.uvs[sel],
-                              double_sided=whole.double_sided))
+                              double_sided=whole.double_sided,
+                              colors=None if whole.colors is None else whole.colors[sel]))
     return parts
 
 
@@ -243,7 +269,7 @@ def _double_sided(prim: Usd.Prim) -> bool:
 
 
 def _finish(path: str, points: np.ndarray, triangles: np.ndarray, normals, uvs,
-            m: np.ndarray, smooth: bool, double_sided: bool) -> Mesh:
+            m: np.ndarray, smooth: bool, double_sided: bool, colors=None) -> Mesh:
     """Bake the gprim-to-container matrix into gprim-space geometry.
 
     `triangles` must be CCW in gprim space; a mirroring matrix reverses them.  `normals` are
@@ -256,6 +282,7 @@ def _finish(path: str, points: np.ndarray, triangles: np.ndarray, normals, uvs,
         tris = tris[:, [0, 2, 1]]
         normals = None if normals is None else normals[:, [0, 2, 1]]
         uvs = None if uvs is None else uvs[:, [0, 2, 1]]
+        colors = None if colors is None else colors[:, [0, 2, 1]]
     face_n = np.cross(p[tris[:, 1]] - p[tris[:, 0]], p[tris[:, 2]] - p[tris[:, 0]])
     if normals is not None:
         n = normals @ np.linalg.inv(lin)          # row vectors: n' = n M^-1 = (M^-T n)^T
@@ -269,6 +296,7 @@ def _finish(path: str, points: np.ndarray, triangles: np.ndarray, normals, uvs,
     return Mesh(path=path, points=p, triangles=tris,
                 normals=None if normals is None else normals.astype(np.float32),
                 uvs=None if uvs is None else np.ascontiguousarray(uvs[..., :2], np.float32),
+                colors=None if colors is None else np.ascontiguousarray(colors, np.float32),
                 double_sided=double_sided)
 
 

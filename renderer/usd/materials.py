@@ -10,7 +10,8 @@ Resolution order for a bound material:
 3. Anything else (MaterialX-only networks, unknown shader ids, missing surface) -> a warning and
    the gprim's fallback.
 A gprim without a usable material gets a fallback material: its ``primvars:displayColor``
-(inherited from ancestors, averaged when it varies over the surface), else 18% grey.
+(inherited from ancestors; on a mesh where it varies, its colour at each point, interpolated from the
+triangle's corners; on other gprims where it varies, averaged), else 18% grey.
 
 Textures are loaded lazily -- only when a material that is actually bound uses them -- and each
 image file is decoded once (sRGB-decoded when the file is 8-bit sRGB or the shader says so).
@@ -27,7 +28,7 @@ from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
 from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
-from .geometry import flattened
+from .geometry import flattened, varying_display_color
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
@@ -57,7 +58,16 @@ class MaterialTable:
         return self._index[key]
 
     def fallback(self, gprim: Usd.Prim) -> int:
-        """The displayColor (or grey) material of a gprim with no usable bound material."""
+        """The displayColor (or grey) material of a gprim with no usable bound material: a mesh whose
+        displayColor varies over it (`geometry.varying_display_color`; a materialBind GeomSubset: its mesh's)
+        gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), as Storm draws it."""
+        mesh = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
+        if varying_display_color(mesh, self.time) is not None:
+            key = ('displayColor', 'per corner')
+            if key not in self._index:
+                self._index[key] = self._add(Material(path='<displayColor per corner>', diffuse=(1.0, 1.0, 1.0),
+                                                      roughness=1.0, vertex_colors=True))
+            return self._index[key]
         colour = GREY
         pv = UsdGeom.PrimvarsAPI(gprim).FindPrimvarWithInheritance('displayColor')
         if pv and pv.HasAuthoredValue():
