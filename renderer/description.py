@@ -53,6 +53,7 @@ class Sphere:
     material: int = -1
     centers: Optional[np.ndarray] = None   # float64 (n, 3) gprim space: a point cloud
     radii: Optional[np.ndarray] = None     # float64 (n,) its spheres' radii, gprim space
+    colors: Optional[np.ndarray] = None    # float32 (n, 3) a cloud's displayColor a point, where it varies
 
     def balls(self) -> np.ndarray:
         """float64 (n, 4): each sphere's centre and radius in gprim space (one row for a lone sphere)."""

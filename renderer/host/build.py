@@ -174,16 +174,24 @@ class _Tables:
         self.flags.append(flags)
         self.n_tri += len(tris)
 
-    def add_sphere(self, center_radius: np.ndarray | None, material: int) -> None:
+    def add_sphere(self, center_radius: np.ndarray | None, material: int, colors=None) -> None:
         """A sphere slot: `center_radius` (n, 4), a row per sphere of the gprim (a point cloud's: its
         primitives, `shapes.surface` reads row gp_off + primID); None for a sphere moved to the unit-sphere
-        container."""
+        container.  `colors` (n, 3): a cloud's colour a point (rows of the per-corner table, its three corners
+        alike: `shapes.corner_color` reads row c_off + primID)."""
         self.kind.append(GP_SPHERE)
         self.material.append(material)
-        self.flags.append(GP_HAS_UVS | (GP_CLOUD if center_radius is not None and len(center_radius) > 1 else 0))
+        cloud = center_radius is not None and len(center_radius) > 1
+        self.flags.append(GP_HAS_UVS | (GP_CLOUD if cloud else 0) | (GP_HAS_COLORS if cloud and colors is not None
+                                                                      else 0))
         self.n_off.append(-1)
         self.uv_off.append(-1)
-        self.c_off.append(-1)
+        if cloud and colors is not None:
+            self.c_off.append(self._rows.get(id(self.tri_c), 0))
+            self.tri_c.append(np.repeat(np.asarray(colors, np.float32)[:, None, :], 3, axis=1))
+            self._rows[id(self.tri_c)] = self.c_off[-1] + len(colors)
+        else:
+            self.c_off.append(-1)
         if center_radius is None:
             self.off.append(-1)
         else:
@@ -302,7 +310,7 @@ def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
                 tables.add_sphere(None, s.material)
                 continue
             geom_to_gp.append(len(tables.kind))
-            tables.add_sphere(cr, s.material)
+            tables.add_sphere(cr, s.material, s.colors)
             e_spheres.append(cr.astype(np.float32))
         protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres))
         pr_geom.append(geom_to_gp)

@@ -57,6 +57,6 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),
         spheres=bool(np.any(data.gp_kind == GP_SPHERE)),
         normals=bool(np.any(mesh_flags & GP_HAS_NORMALS)), uvs=bool(np.any(mesh_flags & GP_HAS_UVS)),
-        colors=bool(np.any(mesh_flags & GP_HAS_COLORS) and np.any(mi[:, MI_VERTEX_COLOR] != 0)),
+        colors=bool(np.any(data.gp_flags & GP_HAS_COLORS) and np.any(mi[:, MI_VERTEX_COLOR] != 0)),
         xf_motion=data.in_xf.shape[1] > 1, ortho=bool(ctab[C_ORTHO] != 0.0), lens=bool(ctab[C_LENS] > 0.0),
         time=bool(use_time))

@@ -64,7 +64,7 @@ class Features:
     spheres: bool            # an implicit sphere gprim
     normals: bool            # a mesh with shading normals
     uvs: bool                # a mesh with texture coordinates
-    colors: bool             # a mesh with per-corner displayColor whose material shades by it
+    colors: bool             # a mesh (or point cloud) with per-corner displayColor whose material shades by it
     xf_motion: bool          # placements with more than one transform step
     ortho: bool              # the camera is orthographic
     lens: bool               # the lens is sampled (depth of field)

@@ -48,11 +48,13 @@ def triangle_st(S, g, prim_id, bu, bv):
 @nb.njit(**SHADING_INLINE_JIT)
 def corner_color(S, g, hit):
     """The displayColor of mesh gprim g at `hit` (a `records.Hit`): its triangle's corner colours (`Mesh.colors`)
-    interpolated at the hit's barycentrics, as `triangle_st` interpolates texture coordinates; white where the
-    gprim has none."""
+    interpolated at the hit's barycentrics, as `triangle_st` interpolates texture coordinates; a point cloud's
+    point's own colour (`Sphere.colors`); white where the gprim has none."""
     if S.gp_flags[g] & GP_HAS_COLORS:
         k = S.gp_c_off[g] + hit.prim_id
         c = S.tri_c
+        if S.gp_kind[g] == GP_SPHERE:
+            return c[k, 0, 0], c[k, 0, 1], c[k, 0, 2]
         w0 = 1.0 - hit.u - hit.v
         return (w0 * c[k, 0, 0] + hit.u * c[k, 1, 0] + hit.v * c[k, 2, 0],
                 w0 * c[k, 0, 1] + hit.u * c[k, 1, 1] + hit.v * c[k, 2, 1],

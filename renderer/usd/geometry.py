@@ -155,11 +155,11 @@ def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
 
 
 def varying_display_color(prim: Usd.Prim, time):
-    """(values (k, 3), interpolation) of a Mesh's own primvars:displayColor where it varies over the mesh (an
-    interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh keeps its
-    colours per triangle corner (`Mesh.colors`), which a material fallback shades by (`materials.fallback`: its
-    one test of the same prim, so that the two agree)."""
-    if not prim.IsA(UsdGeom.Mesh):
+    """(values (k, 3), interpolation) of a Mesh's or Points' own primvars:displayColor where it varies over it
+    (an interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh keeps
+    its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), which a
+    material fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree)."""
+    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points)):
         return None
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
@@ -501,8 +501,17 @@ def _points(prim, m, time, warn):
     g = m[:3, :3].T @ m[:3, :3]
     if not np.allclose(g, np.trace(g) / 3.0 * np.eye(3), rtol=1e-6, atol=1e-12 * abs(np.trace(g))):
         warn(f'{path}: a non-uniform scale; its points stay spheres, their widths scaled by its mean scale')
+    colors = None
+    varying = varying_display_color(prim, time)
+    if varying is not None:                          # (every interpolation but constant is a value a point)
+        colors = varying[0][:len(p)] if len(varying[0]) >= len(p) else None
+        if colors is None:
+            warn(f'{path}: primvars:displayColor: {len(varying[0])} values for {len(p)} points; their mean colour '
+                 'used')
+            colors = np.broadcast_to(varying[0].mean(0), (len(p), 3))
+        colors = np.ascontiguousarray(colors[ok], np.float32)
     return [Sphere(path=path, radius=float(r[ok].max()), matrix=np.array(m, np.float64),
-                   centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]))]
+                   centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]), colors=colors)]
 
 
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')

@@ -11,7 +11,7 @@ Resolution order for a bound material:
    the gprim's fallback.
 A gprim without a usable material gets a fallback material: its ``primvars:displayColor``
 (inherited from ancestors; on a mesh where it varies, its colour at each point, interpolated from the
-triangle's corners; on other gprims where it varies, averaged), else 18% grey.
+triangle's corners; on a point cloud, each point's; on other gprims where it varies, averaged), else 18% grey.
 
 Textures are loaded lazily -- only when a material that is actually bound uses them -- and each
 image file is decoded once (sRGB-decoded when the file is 8-bit sRGB or the shader says so).
@@ -60,7 +60,8 @@ class MaterialTable:
     def fallback(self, gprim: Usd.Prim) -> int:
         """The displayColor (or grey) material of a gprim with no usable bound material: a mesh whose
         displayColor varies over it (`geometry.varying_display_color`; a materialBind GeomSubset: its mesh's)
-        gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), as Storm draws it."""
+        gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), as Storm draws it; a point
+        cloud's, its colour a point (`Sphere.colors`)."""
         mesh = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
         if varying_display_color(mesh, self.time) is not None:
             key = ('displayColor', 'per corner')

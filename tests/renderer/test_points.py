@@ -16,15 +16,16 @@ from rtc.renderer.usd.stage import read_stage
 
 CENTRES = [(-1.0, 0.5, 0.0), (0.0, 0.5, 0.3), (1.1, 0.6, 0.0), (0.0, 1.5, -1.0), (-0.4, 0.2, 1.0)]
 WIDTHS = [0.8, 0.6, 1.0, 0.5, 0.3]
+COLOURS = [(0.9, 0.1, 0.1), (0.1, 0.8, 0.2), (0.2, 0.3, 0.9), (0.9, 0.8, 0.1), (0.6, 0.2, 0.7)]
 
 
 def _stage(cloud: bool, instanced: bool = False, glow: bool = False, squash: bool = False,
-           moving: bool = False) -> Usd.Stage:
+           moving: bool = False, coloured: bool = False) -> Usd.Stage:
     """A floor, a sphere light, a camera and five balls, as one Points prim (cloud) or as five Spheres,
     under a rotated, uniformly scaled and moved Xform; `instanced`: that Xform an instanceable prototype
     placed twice.  `glow`: the balls emit (UsdPreviewSurface emissiveColor) and the sphere light is gone;
     `squash`: the second placement scaled by (1, 0.6, 1) (its balls ellipsoids); `moving`: it moves over
-    the shutter."""
+    the shutter; `coloured`: each ball its displayColor (the cloud's per point, a sphere's constant)."""
     st = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(st, 'Y')
     UsdGeom.SetStageMetersPerUnit(st, 1.0)
@@ -53,11 +54,15 @@ def _stage(cloud: bool, instanced: bool = False, glow: bool = False, squash: boo
         pts.CreatePointsAttr(CENTRES)
         pts.CreateWidthsAttr(WIDTHS)
         pts.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+        if coloured:
+            pts.CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(COLOURS)
     else:
         for k, (c, w) in enumerate(zip(CENTRES, WIDTHS)):
             s = UsdGeom.Sphere.Define(st, f'{root}/S{k}')
             s.CreateRadiusAttr(w / 2)
             s.AddTranslateOp().Set(Gf.Vec3d(*c))
+            if coloured:
+                s.CreateDisplayColorPrimvar(UsdGeom.Tokens.constant).Set([COLOURS[k]])
     if glow:
         mat = UsdShade.Material.Define(st, root + '/Glow')
         shader = UsdShade.Shader.Define(st, root + '/Glow/Surface')
@@ -136,15 +141,38 @@ def test_bad_points_are_left_out_with_a_warning():
     assert not any(c.spheres for c in desc.containers) and any('/P: no point to draw' in s for s in desc.skipped)
 
 
+def test_point_colours_are_read_a_point():
+    """A cloud's displayColor that varies is read a point (the points left out take theirs with them); a count
+    that is not the points' is warned and its mean used; a constant one is the fallback material's colour."""
+    st = _points_stage([(0, 0, 0), (float('nan'), 0, 0), (2, 0, 0)], [1.0], UsdGeom.Tokens.constant)
+    UsdGeom.Points(st.GetPrimAtPath('/P')).CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(COLOURS[:3])
+    desc = read_stage(st)
+    (cloud,) = desc.containers[0].spheres
+    np.testing.assert_array_equal(cloud.colors, np.array([COLOURS[0], COLOURS[2]], np.float32))
+    assert desc.materials[cloud.material].vertex_colors
+    UsdGeom.Points(st.GetPrimAtPath('/P')).GetDisplayColorPrimvar().Set(COLOURS[:2])
+    desc = read_stage(st)
+    np.testing.assert_allclose(desc.containers[0].spheres[0].colors, [np.mean(COLOURS[:2], 0)] * 2, rtol=1e-6)
+    assert any('/P: primvars:displayColor: 2 values for 3 points' in w for w in desc.warnings)
+    UsdGeom.Points(st.GetPrimAtPath('/P')).GetDisplayColorPrimvar().SetInterpolation(UsdGeom.Tokens.constant)
+    desc = read_stage(st)
+    cloud = desc.containers[0].spheres[0]
+    assert cloud.colors is None and desc.materials[cloud.material].diffuse == pytest.approx(np.mean(COLOURS[:2], 0))
+
+
 @pytest.mark.parametrize('integrator', ['path', 'cook'])
-@pytest.mark.parametrize('instanced', [False, True])
-def test_a_point_cloud_renders_as_its_spheres(integrator, instanced):
+@pytest.mark.parametrize('instanced, coloured', [(False, False), (True, False), (False, True), (True, True)])
+def test_a_point_cloud_renders_as_its_spheres(integrator, instanced, coloured):
     """The cloud's image equals that of the same balls as UsdGeom.Spheres (the same balls, only grouped in
     one Embree geometry, their centres placed by numpy instead of USD's matrix products: the pixels agree to
-    float rounding, a ball moved by 1e-16 of its size)."""
+    float rounding, a ball moved by 1e-16 of its size); `coloured`: the cloud's displayColor a point (no
+    material) against each sphere's own constant one."""
     images = []
     for cloud in (True, False):
-        desc = read_stage(_stage(cloud, instanced))
+        desc = read_stage(_stage(cloud, instanced, coloured=coloured))
+        if coloured and cloud:
+            for balls in (s for c in desc.containers for s in c.spheres):
+                np.testing.assert_array_equal(balls.colors, np.array(COLOURS, np.float32))
         with Renderer(desc, threads=1) as r:
             images.append(r.render(RenderOptions(width=64, height=48, spp=4, integrator=integrator,
                                                  max_depth=3, threads=1)).image)
