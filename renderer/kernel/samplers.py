@@ -64,7 +64,7 @@ from llvmlite import ir
 from numba import njit, types
 from numba.extending import intrinsic
 
-from .dimensions import DIM_LENS, DIM_PIXEL, lens_dim, pixel_dim
+from .dimensions import DIM_LENS, lens_dim, pixel_dim
 from .features import B_CMJ, B_SOBOL, B_STRATIFIED, F_SAMPLERS
 from .jit import INLINE_JIT, JIT, SHADING_JIT
 

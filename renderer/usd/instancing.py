@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
 
 from ..errors import SceneError
 from .geometry import converter_for
