@@ -182,11 +182,11 @@ class _Tables:
         self.kind.append(GP_SPHERE)
         self.material.append(material)
         cloud = center_radius is not None and len(center_radius) > 1
-        self.flags.append(GP_HAS_UVS | (GP_CLOUD if cloud else 0) | (GP_HAS_COLORS if cloud and colors is not None
-                                                                      else 0))
+        coloured = center_radius is not None and colors is not None      # (a cloud of one point left: its row)
+        self.flags.append(GP_HAS_UVS | (GP_CLOUD if cloud else 0) | (GP_HAS_COLORS if coloured else 0))
         self.n_off.append(-1)
         self.uv_off.append(-1)
-        if cloud and colors is not None:
+        if coloured:
             self.c_off.append(self._rows.get(id(self.tri_c), 0))
             self.tri_c.append(np.repeat(np.asarray(colors, np.float32)[:, None, :], 3, axis=1))
             self._rows[id(self.tri_c)] = self.c_off[-1] + len(colors)

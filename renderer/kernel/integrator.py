@@ -214,7 +214,7 @@ def _shading_point(S, tr, ray, time):
         ns = ng
     wo = (-dvec[0], -dvec[1], -dvec[2])
     kd, ks = colors(S, mat, st)
-    if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] != 0:        # (the displayColor fallback of a mesh)
+    if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] != 0:        # (the displayColor fallback: a mesh's, a cloud's)
         c = corner_color(S, g, hit)
         kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
     return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks)

@@ -160,6 +160,25 @@ def test_point_colours_are_read_a_point():
     assert cloud.colors is None and desc.materials[cloud.material].diffuse == pytest.approx(np.mean(COLOURS[:2], 0))
 
 
+def test_a_cloud_of_one_point_left_keeps_its_colour():
+    """Two points of two colours, one of them left out (not finite): the one left is drawn in its own colour
+    (its row of the colour table), not the white of the fallback material it multiplies."""
+    from rtc.renderer.host.build import build
+    from rtc.renderer.kernel.records import Hit
+    from rtc.renderer.kernel.shapes import corner_color
+    st = _points_stage([(0, 0, 0), (float('nan'), 0, 0)], [1.0], UsdGeom.Tokens.constant)
+    UsdGeom.Points(st.GetPrimAtPath('/P')).CreateDisplayColorPrimvar(UsdGeom.Tokens.vertex).Set(COLOURS[:2])
+    desc = read_stage(st)
+    (ball,) = [s for c in desc.containers for s in c.spheres]
+    assert desc.materials[ball.material].vertex_colors and len(ball.centers) == 1
+    built = build(desc)
+    try:
+        g = int(np.flatnonzero(built.data.gp_kind == 1)[0])
+        np.testing.assert_allclose(corner_color(built.data, g, Hit(0, 0, 0, 0, 0.0, 0.0, 1.0)), COLOURS[0], rtol=1e-6)
+    finally:
+        built.close()
+
+
 @pytest.mark.parametrize('integrator', ['path', 'cook'])
 @pytest.mark.parametrize('instanced, coloured', [(False, False), (True, False), (False, True), (True, True)])
 def test_a_point_cloud_renders_as_its_spheres(integrator, instanced, coloured):
