@@ -195,9 +195,8 @@ def _node_bounds(bounds: list, order: np.ndarray, levels: list) -> tuple[np.ndar
     lo, hi, phi, w, cos_o, two = (np.concatenate(x) for x in zip(*parts))
     sin_o = np.sqrt(np.maximum(0.0, 1.0 - cos_o * cos_o)) * np.where(two, -1.0, 1.0)
     rec = np.zeros((len(phi), LIGHT_TREE.width))
-    for name, v in (('C', 0.5 * (lo + hi)), ('RADIUS', 0.5 * np.linalg.norm(hi - lo, axis=1)), ('PHI', phi), ('W', w),
-                    ('COS_O', cos_o), ('SIN_O', sin_o)):
-        rec[:, LIGHT_TREE.offset[name]:LIGHT_TREE.offset[name] + LIGHT_TREE.widths[name]] = v.reshape(len(phi), -1)
+    LIGHT_TREE.write_rows(rec, C=0.5 * (lo + hi), RADIUS=0.5 * np.linalg.norm(hi - lo, axis=1), PHI=phi, W=w,
+                          COS_O=cos_o, SIN_O=sin_o)
     return rec, rows
 
 

@@ -242,11 +242,11 @@ def _ball_rows(data, balls: list, first: int):
         f = np.zeros((R * n, SURFACE_LIGHT_F.width))
         i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
         ball = r > 0.0
-        _put(SURFACE_LIGHT_F, f, RAD=e[:, :3], CENTER=c, RADIUS=r, INV=np.linalg.inv(a).reshape(-1, 9),
+        SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], CENTER=c, RADIUS=r, INV=np.linalg.inv(a).reshape(-1, 9),
              AREA=np.where(ball, 4 * np.pi * r ** 2, 4 * np.pi * np.abs(np.linalg.det(a))),
              AXES=np.where(ball[:, None], 0.0, a.reshape(-1, 9)))
         ids = [_texture_ids(data, row, slot, emit[k]) for k, row in enumerate(rows)]
-        _put(SURFACE_LIGHT_I, i, ELLIPSOID=~ball, EMISSION_TEX=np.repeat([d['EMISSION_TEX'] for d in ids], n),
+        SURFACE_LIGHT_I.write_rows(i, ELLIPSOID=~ball, EMISSION_TEX=np.repeat([d['EMISSION_TEX'] for d in ids], n),
              GPRIM=np.repeat([d['GPRIM'] for d in ids], n))
         extent = np.where(ball[:, None], r[:, None], np.sqrt((a * a).sum(2)))
         projected = np.pi * r ** 2                           # an ellipsoid's largest projected area: pi s1 s2
@@ -260,13 +260,6 @@ def _ball_rows(data, balls: list, first: int):
         sl_i += list(i)
         row_lights.append((rows, slot, first + start + n * np.arange(R)))
     return sl_f, sl_i, bounds, row_lights
-
-
-def _put(table, rows: np.ndarray, **columns) -> None:
-    """Store each field's values (one a row) into the rows (n, table.width) of a table."""
-    for name, v in columns.items():
-        off, width = table.offset[name], table.widths[name]
-        rows[:, off:off + width] = np.asarray(v).reshape(len(rows), width)
 
 
 def _instance_ids(data, rows: np.ndarray) -> np.ndarray:

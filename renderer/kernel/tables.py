@@ -49,6 +49,12 @@ class Table:
             else:
                 row[off:off + self.widths[name]] = v
 
+    def write_rows(self, rows, **values) -> None:
+        """Store each field's values (an array, one a row) into rows (n, `self.width`)."""
+        for name, v in values.items():
+            off, width = self.offset[name], self.widths[name]
+            rows[:, off:off + width] = v.reshape(len(rows), width)
+
 
 MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROUGH', 1), ('IOR', 1),
                           ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
