@@ -70,15 +70,41 @@ class Sphere:
 
 
 @dataclass
+class Curves:
+    """UsdGeom.BasisCurves as round tubes (the surface a sphere of the curve's width sweeps along it), in its
+    container's space: cubic curves of any basis as cubic Bezier segments (four control points each), linear
+    curves as chains of cones with round joints (Embree's round curves: `usd/curves.py`)."""
+    path: str
+    vertices: np.ndarray               # float64 (n, 4): control points x, y, z and the radius there, container space
+    segments: np.ndarray               # int64 (k,): each segment's first vertex (cubic: 4 vertices, linear: 2)
+    linear: bool
+    flags: Optional[np.ndarray] = None     # uint8 (k,) linear: 1 the segment before it joins it, 2 the one after
+    colors: Optional[np.ndarray] = None    # float32 (k, 2, 3) displayColor at each segment's two ends, where it varies
+    material: int = -1
+
+    def segment_rows(self) -> np.ndarray:
+        """float64 (k, 4, 4): each segment's control points (a linear one's two ends, then its end again)."""
+        return segment_rows(self.vertices, self.segments, self.linear)
+
+
+def segment_rows(vertices: np.ndarray, segments: np.ndarray, linear: bool) -> np.ndarray:
+    """(k, 4, columns) rows of curve segments (`Curves`): each segment's four control points from its first vertex
+    (a linear segment's two ends, then its end again)."""
+    take = np.minimum(np.arange(4), 1 if linear else 3)
+    return np.ascontiguousarray(vertices[np.asarray(segments, np.int64)[:, None] + take])
+
+
+@dataclass
 class Container:
     key: str                           # stable name within one read ('/', prototype path, 'PI:/path')
     meshes: list[Mesh] = field(default_factory=list)
     spheres: list[Sphere] = field(default_factory=list)
+    curves: list[Curves] = field(default_factory=list)
 
     @property
     def gprims(self) -> list:
-        """Gprim order used for per-gprim material sets: meshes first, then spheres."""
-        return [*self.meshes, *self.spheres]
+        """Gprim order used for per-gprim material sets: meshes first, then spheres, then curves."""
+        return [*self.meshes, *self.spheres, *self.curves]
 
 
 @dataclass

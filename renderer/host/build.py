@@ -20,14 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import description as D
-from .embree import Device, InstanceGroup
+from .embree import CurveGeometry, Device, InstanceGroup
 from ..kernel.trace import MASK_SURFACES
-from ..kernel.tables import (GP_CLOUD, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LIGHT_F,
-                             MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, WRAP)
+from ..kernel.tables import LIGHT_F, MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, WRAP
+from .gprim_tables import GprimTables
 
 SceneData = namedtuple('SceneData', [
     'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off', 'gp_c_off',
-    'tri_v', 'tri_n', 'tri_uv', 'tri_c', 'sph',
+    'tri_v', 'tri_n', 'tri_uv', 'tri_c', 'sph', 'crv',
     'pr_gp_start', 'pr_geom_off', 'pr_geom_gp',
     'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
     'mat_i', 'mat_f',
@@ -83,6 +83,8 @@ def _container_radius(c: D.Container, ctr: np.ndarray) -> float:
     for s in c.spheres:
         b = s.placed_balls(float(np.linalg.norm(s.matrix[:3, :3], 2)))
         r = max(r, float(np.max(np.linalg.norm(b[:, :3] - ctr, axis=1) + b[:, 3])))
+    for x in c.curves:                 # (a Bezier segment lies in its control points' hull)
+        r = max(r, float(np.max(np.linalg.norm(x.vertices[:, :3] - ctr, axis=1) + x.vertices[:, 3])))
     return r if np.isfinite(r) else 0.0
 
 
@@ -142,61 +144,10 @@ def _container_center(c: D.Container) -> np.ndarray:
         ctr = s.placed_balls(1.0)[:, :3]
         lo = np.minimum(lo, ctr.min(0))
         hi = np.maximum(hi, ctr.max(0))
+    for x in c.curves:
+        lo = np.minimum(lo, x.vertices[:, :3].min(0))
+        hi = np.maximum(hi, x.vertices[:, :3].max(0))
     return np.where(np.isfinite(lo), 0.5 * (lo + hi), 0.0)
-
-
-class _Tables:
-    """Accumulates per-gprim rows while containers are converted."""
-
-    def __init__(self):
-        self.kind, self.off, self.flags, self.material, self.n_off, self.uv_off = [], [], [], [], [], []
-        self.c_off, self.tri_c = [], []
-        self.tri_v, self.tri_n, self.tri_uv, self.sph = [], [], [], []
-        self.n_tri = 0
-        self._rows = {}                    # per-corner table -> rows so far
-
-    def add_mesh(self, v32: np.ndarray, tris: np.ndarray, m: D.Mesh) -> None:
-        flags = 0
-        self.kind.append(GP_MESH)
-        self.off.append(self.n_tri)
-        self.material.append(m.material)
-        self.tri_v.append(v32[tris])
-        for values, flag, offsets, table in ((m.normals, GP_HAS_NORMALS, self.n_off, self.tri_n),
-                                             (m.uvs, GP_HAS_UVS, self.uv_off, self.tri_uv),
-                                             (m.colors, GP_HAS_COLORS, self.c_off, self.tri_c)):
-            if values is None:                 # per-corner values: a row a triangle, from the gprim's offset
-                offsets.append(-1)
-                continue
-            flags |= flag
-            offsets.append(self._rows.get(id(table), 0))
-            table.append(np.asarray(values, np.float32))
-            self._rows[id(table)] = offsets[-1] + len(tris)
-        self.flags.append(flags)
-        self.n_tri += len(tris)
-
-    def add_sphere(self, center_radius: np.ndarray | None, material: int, colors=None) -> None:
-        """A sphere slot: `center_radius` (n, 4), a row per sphere of the gprim (a point cloud's: its
-        primitives, `shapes.surface` reads row gp_off + primID); None for a sphere moved to the unit-sphere
-        container.  `colors` (n, 3): a cloud's colour a point (rows of the per-corner table, its three corners
-        alike: `shapes.corner_color` reads row c_off + primID)."""
-        self.kind.append(GP_SPHERE)
-        self.material.append(material)
-        cloud = center_radius is not None and len(center_radius) > 1
-        coloured = center_radius is not None and colors is not None      # (a cloud of one point left: its row)
-        self.flags.append(GP_HAS_UVS | (GP_CLOUD if cloud else 0) | (GP_HAS_COLORS if coloured else 0))
-        self.n_off.append(-1)
-        self.uv_off.append(-1)
-        if coloured:
-            self.c_off.append(self._rows.get(id(self.tri_c), 0))
-            self.tri_c.append(np.repeat(np.asarray(colors, np.float32)[:, None, :], 3, axis=1))
-            self._rows[id(self.tri_c)] = self.c_off[-1] + len(colors)
-        else:
-            self.c_off.append(-1)
-        if center_radius is None:
-            self.off.append(-1)
-        else:
-            self.off.append(len(self.sph))
-            self.sph.extend(center_radius)
 
 
 def _cat(parts, shape, dtype):
@@ -270,7 +221,7 @@ def _container_shapes(c: D.Container, ctr: np.ndarray):
     triangles uint32)] per mesh, [rows (centre - ctr, radius) float64 (n, 4)] per sphere gprim (one row, or a
     point cloud's n), or None for a lone sphere that is not similarity-placed (an ellipsoid: an instance of the
     unit sphere); a point cloud's spheres under such a matrix stay spheres, their radii scaled by its mean
-    scale, |det|^(1/3))."""
+    scale, |det|^(1/3)), [`embree.CurveGeometry`] per curves gprim)."""
     meshes = [((np.asarray(m.points, np.float64) - ctr).astype(np.float32),
                np.ascontiguousarray(m.triangles, np.uint32)) for m in c.meshes]
     spheres = []
@@ -284,10 +235,12 @@ def _container_shapes(c: D.Container, ctr: np.ndarray):
         b = s.placed_balls(scale)
         b[:, :3] -= ctr
         spheres.append(b)
-    return meshes, spheres
+    curves = [CurveGeometry(x.linear, (x.vertices - np.append(ctr, 0.0)).astype(np.float32),
+                            x.segments.astype(np.uint32), x.flags) for x in c.curves]
+    return meshes, spheres, curves
 
 
-def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
+def _prototypes(dev: Device, containers: list, tables: GprimTables, kept: list):
     """One Embree scene per container, geometry re-centred on the container's centre; spheres that
     are not similarity-placed (ellipsoids) are left out and listed (container, sphere index) to be
     placed as instances of the unit sphere.  `kept`: the prototype scenes of an earlier build of the
@@ -299,7 +252,7 @@ def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
         centers.append(ctr)
         radii.append(_container_radius(c, ctr))
         pr_gp_start.append(len(tables.kind))
-        e_meshes, spheres = _container_shapes(c, ctr)
+        e_meshes, spheres, curves = _container_shapes(c, ctr)
         e_spheres, geom_to_gp = [], []
         for m, (v32, tris) in zip(c.meshes, e_meshes):
             geom_to_gp.append(len(tables.kind))
@@ -312,7 +265,10 @@ def _prototypes(dev: Device, containers: list, tables: _Tables, kept: list):
             geom_to_gp.append(len(tables.kind))
             tables.add_sphere(cr, s.material, s.colors)
             e_spheres.append(cr.astype(np.float32))
-        protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres))
+        for x, geometry in zip(c.curves, curves):
+            geom_to_gp.append(len(tables.kind))
+            tables.add_curves(geometry.segment_rows(), x)
+        protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres, curve_gprims=curves))
         pr_geom.append(geom_to_gp)
     return protos, centers, radii, pr_gp_start, pr_geom, ellipsoids
 
@@ -384,8 +340,8 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
     """The geometry of every placement, placed (camera-relative world space), when the scene can be one
     level: nothing moves and every container is placed once (a prototype placed twice is never
     flattened), by an invertible matrix (and, where the container holds spheres, a similarity: a placed
-    sphere stays a sphere).  -> [(placement row, (meshes, spheres) placed, their geometry ids in the
-    prototype)], or None."""
+    sphere stays a sphere), and no container holds curves.  -> [(placement row, (meshes, spheres) placed, their
+    geometry ids in the prototype)], or None."""
     d = built.data
     if built.motion_steps != 1 or len(built.top.groups) != 1:
         return None
@@ -397,8 +353,10 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
         if not np.isfinite(m).all() or abs(np.linalg.det(m[:, :3])) < 1e-300:
             return None
         c = containers[int(d.in_proto[row])]
-        meshes, spheres = _container_shapes(c, _container_center(c))
+        meshes, spheres, curves = _container_shapes(c, _container_center(c))
         spheres = [cr for cr in spheres if cr is not None]
+        if curves:                                    # (curves stay in their prototype)
+            return None
         scale = _similarity_scale(m[:, :3])
         if spheres and scale is None:
             return None
@@ -425,10 +383,10 @@ def _path_prototypes(built: 'BuiltScene', containers: list) -> list:
     if built.path_prototypes is None:
         own = {}
         for ci, c in enumerate(containers):
-            meshes, spheres = _container_shapes(c, _container_center(c))
+            meshes, spheres, curves = _container_shapes(c, _container_center(c))
             spheres = [cr for cr in spheres if cr is not None]
             if spheres:
-                own[ci] = built.device.prototype_scene(meshes, spheres, user_shapes=True)
+                own[ci] = built.device.prototype_scene(meshes, spheres, user_shapes=True, curve_gprims=curves)
         if len(built.prototypes) > len(containers):       # the ellipsoids' unit sphere (`build`)
             own[len(containers)] = built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])],
                                                                 user_shapes=True)
@@ -517,7 +475,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
     (its top level is released) and must not be rendered afterwards."""
     inst = desc.instances
     containers = list(desc.containers)
-    tables = _Tables()
+    tables = GprimTables()
     dev = reuse.device if reuse is not None else Device(threads=threads)
     kept = list(reuse.prototypes) if reuse is not None else []
     kept_path = reuse.path_prototypes if reuse is not None else None
@@ -570,6 +528,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         tri_v=_cat(tables.tri_v, (1, 3, 3), np.float32), tri_n=_cat(tables.tri_n, (1, 3, 3), np.float32),
         tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32), tri_c=_cat(tables.tri_c, (1, 3, 3), np.float32),
         sph=np.array(tables.sph, np.float64).reshape(-1, 4) if tables.sph else np.zeros((1, 4)),
+        crv=_cat(tables.crv, (1, 4, 4), np.float32),
         pr_gp_start=np.array(pr_gp_start, np.int64), pr_geom_off=geom_off,
         pr_geom_gp=np.array([g for gs in pr_geom for g in gs] or [0], np.int64),
         in_proto=np.ascontiguousarray(in_proto[perm], np.int32),

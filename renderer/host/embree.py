@@ -36,8 +36,10 @@ from dataclasses import dataclass
 import embreex
 import numpy as np
 
+from .. import description as D
+
 __all__ = [
-    "Device", "Scene", "InstanceGroup", "EmbreeError", "decompose_affine", "LIB", "LIBRARY_PATH",
+    "Device", "Scene", "InstanceGroup", "CurveGeometry", "EmbreeError", "decompose_affine", "LIB", "LIBRARY_PATH",
 ]
 
 
@@ -69,6 +71,7 @@ _ERROR_NAMES = {
 
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
 RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE = 16
+RTC_GEOMETRY_TYPE_ROUND_BEZIER_CURVE = 24
 RTC_GEOMETRY_TYPE_SPHERE_POINT = 50
 RTC_GEOMETRY_TYPE_USER = 120
 RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
@@ -76,7 +79,9 @@ RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 RTC_BUFFER_TYPE_INDEX = 0
 RTC_BUFFER_TYPE_VERTEX = 1
 RTC_BUFFER_TYPE_TRANSFORM = 23
+RTC_BUFFER_TYPE_FLAGS = 32
 
+RTC_FORMAT_UCHAR = 0x1001
 RTC_FORMAT_UINT = 0x5001
 RTC_FORMAT_UINT3 = 0x5003
 RTC_FORMAT_FLOAT3 = 0x9003
@@ -151,6 +156,22 @@ class EmbreeError(RuntimeError):
 
 
 # ----------------------------------------------------------------------------- data
+@dataclass
+class CurveGeometry:
+    """A curves gprim as Embree takes it: `vertices` float32 (n, 4), control points (x, y, z, radius);
+    `segments` uint32 (k,), each segment's first vertex.  linear: round linear curves (cones with round joints;
+    `flags` uint8 (k,): Embree's RTC_CURVE_FLAG_NEIGHBOR_LEFT (1) / _RIGHT (2), the segments before and after
+    it share its ends); else round Bezier curves (four vertices a segment)."""
+    linear: bool
+    vertices: np.ndarray
+    segments: np.ndarray
+    flags: np.ndarray | None = None
+
+    def segment_rows(self) -> np.ndarray:
+        """float32 (k, 4, 4): each segment's control points, as Embree reads them (`description.segment_rows`)."""
+        return D.segment_rows(self.vertices, self.segments, self.linear)
+
+
 @dataclass
 class InstanceGroup:
     """Placements of prototypes that become ONE instance-array geometry (e.g. a PointInstancer).
@@ -286,7 +307,8 @@ class Device:
     # -- build
     def prototype_scene(self, meshes: list[tuple[np.ndarray, np.ndarray]],
                         spheres: list[np.ndarray], robust: bool = True, curves: tuple = (),
-                        masks: list[int] | None = None, first_id: int = 0, user_shapes: bool = False) -> Scene:
+                        masks: list[int] | None = None, first_id: int = 0, user_shapes: bool = False,
+                        curve_gprims: list = ()) -> Scene:
         """One Embree scene (one BVH) holding a container's geometry.
 
         meshes:  [(vertices float32 (n, 3), triangles uint32 (m, 3))] -> TRIANGLE geometries,
@@ -302,6 +324,8 @@ class Device:
                  in float64, the rows taken in float64; a segment is then the open cylinder, without the
                  capsule's round ends) instead of SPHERE_POINT and round linear curve geometries; their hits
                  report the same fields.
+        curve_gprims: [CurveGeometry] -> round Bezier or round linear curve geometries (UsdGeom.BasisCurves),
+                 geomIDs after the curves'.
         Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
         spheres p - c; u, v are the barycentric weights of v1, v2.
         """
@@ -309,17 +333,17 @@ class Device:
 
         def build(scene):
             keep.extend(self._attach_shapes(scene, first_id, meshes, spheres, curves, mask=masks,
-                                            user_shapes=user_shapes))
+                                            user_shapes=user_shapes, curve_gprims=curve_gprims))
             return ()
         return self._build_scene(build, robust, "prototype scene", keep)
 
     def _attach_shapes(self, scene, first_id: int, meshes, spheres, curves=(), mask: int | list | None = None,
-                       user_shapes: bool = False) -> list:
+                       user_shapes: bool = False, curve_gprims=()) -> list:
         """Attach meshes, spheres and curves (as `prototype_scene` describes them) to `scene` as geomIDs
         first_id, first_id + 1, ... in that order; mask: the ray mask of every geometry, or a list of one
         per geometry in that order, or None (Embree's default).  -> the arrays Embree reads that must
         outlive the scene (the user geometry's rows)."""
-        n = len(meshes) + len(spheres) + len(curves)
+        n = len(meshes) + len(spheres) + len(curves) + len(curve_gprims)
         masks = list(mask) if isinstance(mask, (list, tuple)) else [mask] * n
         if len(masks) != n:
             raise ValueError(f"{len(masks)} masks for {n} geometries")
@@ -352,6 +376,14 @@ class Device:
                 (RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, segments.reshape(-1, 4)),
                 (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32,
                  2 * np.arange(len(segments), dtype=np.uint32))], mask=masks[len(meshes) + len(spheres) + i])
+        for i, x in enumerate(curve_gprims):
+            vertices = _as_rows(x.vertices, 4, "curve vertices")
+            buffers = [(RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT4, np.float32, vertices),
+                       (RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT, np.uint32, np.asarray(x.segments, np.uint32))]
+            if x.flags is not None:
+                buffers.append((RTC_BUFFER_TYPE_FLAGS, 0, RTC_FORMAT_UCHAR, np.uint8, np.asarray(x.flags, np.uint8)))
+            kind = RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE if x.linear else RTC_GEOMETRY_TYPE_ROUND_BEZIER_CURVE
+            self._attach(scene, first_id + len(curves) + i, kind, buffers, mask=masks[n - len(curve_gprims) + i])
         return keep
 
     def top_scene(self, prototypes: list[Scene], groups: list[InstanceGroup], robust: bool = True,

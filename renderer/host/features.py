@@ -14,8 +14,8 @@ import numpy as np
 
 from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
-from ..kernel.tables import (C_LENS, C_ORTHO, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE, LF_COURSE,
-                             MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
+from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
+                             LF_COURSE, MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
                              MI_SPECULAR_TEX, MI_VERTEX_COLOR)
 
 
@@ -55,7 +55,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),
-        spheres=bool(np.any(data.gp_kind == GP_SPHERE)),
+        spheres=bool(np.any(data.gp_kind == GP_SPHERE)), curves=bool(np.any(data.gp_kind == GP_CURVES)),
         normals=bool(np.any(mesh_flags & GP_HAS_NORMALS)), uvs=bool(np.any(mesh_flags & GP_HAS_UVS)),
         colors=bool(np.any(data.gp_flags & GP_HAS_COLORS) and np.any(mi[:, MI_VERTEX_COLOR] != 0)),
         xf_motion=data.in_xf.shape[1] > 1, ortho=bool(ctab[C_ORTHO] != 0.0), lens=bool(ctab[C_LENS] > 0.0),

@@ -26,18 +26,23 @@ def describe(desc: SceneDescription) -> str:
     balls = [sum(len(s.balls()) for s in c.spheres) for c in desc.containers]      # (a point cloud: its spheres)
     spheres = sum(balls)
     placed_spheres = sum(b * int(n) for b, n in zip(balls, per_container))
+    segs = [sum(len(x.segments) for x in c.curves) for c in desc.containers]
+    placed_segs = sum(s * int(n) for s, n in zip(segs, per_container))
     lines = [f'{desc.source}',
              f'  up axis {desc.up_axis} (description is Y-up), metersPerUnit {desc.meters_per_unit:g}',
              f'  prototypes (containers): {len(desc.containers)}, placements: {inst.count}, '
              f'motion samples: {inst.motion_steps} at t = {", ".join(f"{t:g}" for t in desc.shutter_times)}',
              f'  triangles: {unique} unique, {instanced} instanced; '
-             f'spheres: {spheres} unique, {placed_spheres} instanced']
+             f'spheres: {spheres} unique, {placed_spheres} instanced'
+             + (f'; curve segments: {sum(segs)} unique, {placed_segs} instanced' if sum(segs) else '')]
     order = np.argsort(-per_container, kind='stable')
     for c in order[:MAX_LISTED]:
         container = desc.containers[c]
         tris = sum(len(m.triangles) for m in container.meshes)
         lines.append(f'    {container.key}: {len(container.meshes)} meshes ({tris} triangles), '
-                     f'{balls[c]} spheres, placed {int(per_container[c])}x')
+                     f'{balls[c]} spheres, '
+                     + (f'{len(container.curves)} curves ({segs[c]} segments), ' if segs[c] else '')
+                     + f'placed {int(per_container[c])}x')
     if len(order) > MAX_LISTED:
         lines.append(f'    ... {len(order) - MAX_LISTED} more')
     kinds = Counter(LIGHT_NAMES[light.type] for light in desc.lights)

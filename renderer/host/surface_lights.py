@@ -56,7 +56,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
+from ..kernel.tables import (GP_CURVES, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
                              SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
                              TI_WIDTH)
 from .light_tree import ENTIRE
@@ -162,12 +162,17 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | placed balls, emission)
     means = {}
     n_balls = _ball_counts(data)
+    glowing_curves = 0
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero(data.in_proto[:n_rows] == c)
         if not len(rows):
             continue
         own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
         for g in range(int(data.pr_gp_start[c]), int(ends[c])):
+            if data.gp_kind[g] == GP_CURVES:              # seen by the rays that meet them, not light-sampled
+                glowing_curves += bool((not own or glowing[data.gp_material[g]])
+                                       and _emitting(data, rows, g - int(data.pr_gp_start[c]), g, means)[1].any())
+                continue
             sphere = data.gp_kind[g] == GP_SPHERE
             if (own and not glowing[data.gp_material[g]]) or (n_balls[g] if sphere else counts[g]) == 0:
                 continue                                  # no emission, a mesh without triangles, an ellipsoid
@@ -199,6 +204,9 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
         warn(f'{n_balls} emissive spheres (placements of emissive spheres and the points of emissive point clouds) '
              f'are lights of the path integrator: more than {MAX_BALLS}, they cost memory (~350 bytes each) and '
              'build time')
+    if glowing_curves and warn is not None:
+        warn(f'{glowing_curves} emissive curves gprims: the rays that meet them see their emission, but they are '
+             'not lights the path integrator samples (their light is noisier than an emissive mesh\'s)')
     return _tables(data, groups, balls, first, movers)
 
 

@@ -62,6 +62,7 @@ class Features:
     emission: bool           # a material with emissive colour
     clearcoat: bool          # a UsdPreviewSurface with clearcoat > 0
     spheres: bool            # an implicit sphere gprim
+    curves: bool             # a curves gprim (UsdGeom.BasisCurves)
     normals: bool            # a mesh with shading normals
     uvs: bool                # a mesh with texture coordinates
     colors: bool             # a mesh (or point cloud) with per-corner displayColor whose material shades by it
@@ -93,7 +94,7 @@ class Features:
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True, lux_lights=True, dome_texture=True,
                light_shapes=True, surface_lights=True, textures=True, opacity=True, emission=True, clearcoat=True, spheres=True,
-               normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
+               curves=True, normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

@@ -16,9 +16,10 @@ import math
 
 import numba as nb
 
-from .features import F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
+from .curves import surface_point
+from .features import F_CURVES, F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
-from .tables import (GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX,
+from .tables import (GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX,
                      MI_SPECULAR_TEX)
 from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
@@ -49,12 +50,17 @@ def triangle_st(S, g, prim_id, bu, bv):
 def corner_color(S, g, hit):
     """The displayColor of mesh gprim g at `hit` (a `records.Hit`): its triangle's corner colours (`Mesh.colors`)
     interpolated at the hit's barycentrics, as `triangle_st` interpolates texture coordinates; a point cloud's
-    point's own colour (`Sphere.colors`); white where the gprim has none."""
+    point's own colour (`Sphere.colors`); a curve segment's end colours, interpolated at Embree's u (`Curves.colors`);
+    white where the gprim has none."""
     if S.gp_flags[g] & GP_HAS_COLORS:
         k = S.gp_c_off[g] + hit.prim_id
         c = S.tri_c
         if S.gp_kind[g] == GP_SPHERE:
             return c[k, 0, 0], c[k, 0, 1], c[k, 0, 2]
+        if F_CURVES and S.gp_kind[g] == GP_CURVES:
+            u = min(1.0, max(0.0, hit.u))
+            return ((1.0 - u) * c[k, 0, 0] + u * c[k, 1, 0], (1.0 - u) * c[k, 0, 1] + u * c[k, 1, 1],
+                    (1.0 - u) * c[k, 0, 2] + u * c[k, 1, 2])
         w0 = 1.0 - hit.u - hit.v
         return (w0 * c[k, 0, 0] + hit.u * c[k, 1, 0] + hit.v * c[k, 2, 0],
                 w0 * c[k, 0, 1] + hit.u * c[k, 1, 1] + hit.v * c[k, 2, 1],
@@ -115,6 +121,12 @@ def surface(S, scene, hit, o, d, time, m, m32):
         # (an atan2 and an asin per hit otherwise wasted)
         st = sphere_st(nobj) if textured(S, mat) else (0.0, 0.0)
         return p, ng, ng, st, g, mat
+    if F_CURVES and S.gp_kind[g] == GP_CURVES:         # the tube's point and normal (`curves.surface_point`)
+        ph = (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])
+        po, vo = inverse_xform(m, ph, d)
+        pobj, nobj = surface_point(S, g, S.gp_off[g] + prim_id, bu, po, vo)
+        ng = normalize(cofactor_dir(m, nobj))
+        return xform_point(m, pobj), ng, ng, (bu, bv), g, mat
     tri = S.gp_off[g] + prim_id
     v = S.tri_v
     w0 = 1.0 - bu - bv

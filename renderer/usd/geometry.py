@@ -1,5 +1,5 @@
-"""UsdGeom gprims -> `Mesh` / `Sphere` records in their container's space (UsdGeom.Points: a `Sphere`
-record of many spheres).
+"""UsdGeom gprims -> `Mesh` / `Sphere` / `Curves` records in their container's space (UsdGeom.Points: a `Sphere`
+record of many spheres; UsdGeom.BasisCurves: `curves.py`).
 
 Every converter receives the gprim-to-container matrix (float64 4x4, column vectors) and bakes
 it: points are transformed, normals use the inverse transpose, and triangles are re-wound so
@@ -155,11 +155,12 @@ def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
 
 
 def varying_display_color(prim: Usd.Prim, time):
-    """(values (k, 3), interpolation) of a Mesh's or Points' own primvars:displayColor where it varies over it
-    (an interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh keeps
-    its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), which a
+    """(values (k, 3), interpolation) of a Mesh's, Points' or BasisCurves' own primvars:displayColor where it varies
+    over it (an interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh
+    keeps its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), curves a
+    colour at each segment end (`Curves.colors`), which a
     material fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree)."""
-    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points)):
+    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.BasisCurves)):
         return None
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
@@ -514,9 +515,14 @@ def _points(prim, m, time, warn):
                    centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]), colors=colors)]
 
 
+def _basis_curves(prim, m, time, warn):
+    from .curves import basis_curves                 # (curves.py is the BasisCurves reader; it reads no module here)
+    return basis_curves(prim, m, time, warn, GeometryError, varying_display_color)
+
+
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
 _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,
-    'Plane': _plane, 'Points': _points,
+    'Plane': _plane, 'Points': _points, 'BasisCurves': _basis_curves,
 }

@@ -26,7 +26,7 @@ from typing import Optional, Union
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
 
-from ..description import (Container, Instances, Light, Mesh, SceneDescription, Sphere)
+from ..description import (Container, Curves, Instances, Light, Mesh, SceneDescription, Sphere)
 from ..errors import SceneError
 from ..options import RenderOptions, resolve
 from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
@@ -101,8 +101,8 @@ def rotate_x(degrees: float) -> np.ndarray:
 
 @dataclass
 class _Shape:
-    """A converted Mesh/Sphere and what it needs for per-placement material resolution."""
-    record: Union[Mesh, Sphere]
+    """A converted Mesh/Sphere/Curves and what it needs for per-placement material resolution."""
+    record: Union[Mesh, Sphere, Curves]
     binding_path: str               # gprim (or GeomSubset) path in the container's namespace
     explicit: bool                  # its purpose is authored inside the container
 
@@ -208,8 +208,8 @@ class _Reader:
                                     f'({mistyped_attributes(prim)})')
                 continue
             shapes += [_Shape(r, str(r.path), purpose != INHERIT) for r in records]
-        # Container.gprims order: meshes first, then spheres
-        return sorted(shapes, key=lambda s: isinstance(s.record, Sphere))
+        # Container.gprims order: meshes first, then spheres, then curves
+        return sorted(shapes, key=lambda s: 2 if isinstance(s.record, Curves) else isinstance(s.record, Sphere))
 
     def _instances(self, graph: InstanceGraph, placed: dict[int, Placements]):
         """Containers (one per placed node and purpose variant that has geometry) and the
@@ -240,7 +240,8 @@ class _Reader:
         for (n, variant, subset, matrices, maps, labels) in rows:
             containers.append(Container(key=graph.nodes[n].key + variant,
                                         meshes=[s.record for s in subset if isinstance(s.record, Mesh)],
-                                        spheres=[s.record for s in subset if isinstance(s.record, Sphere)]))
+                                        spheres=[s.record for s in subset if isinstance(s.record, Sphere)],
+                                        curves=[s.record for s in subset if isinstance(s.record, Curves)]))
             # placements whose map needs no resolution use the container's own materials; sets
             # are numbered in the order of their first map id
             resolve = needs[maps]
@@ -425,6 +426,13 @@ def _spheres_box(s) -> tuple[np.ndarray, np.ndarray]:
     return (c - ext).min(0), (c + ext).max(0)
 
 
+def _curves_box(c) -> tuple[np.ndarray, np.ndarray]:
+    """(lo, hi) of a curves gprim in its container: its control points' balls (a Bezier segment lies in the hull
+    of its control points, its radius between theirs)."""
+    v = c.vertices
+    return (v[:, :3] - v[:, 3:]).min(0), (v[:, :3] + v[:, 3:]).max(0)
+
+
 def scene_bounds(desc: SceneDescription, box=points_box) -> tuple[np.ndarray, np.ndarray]:
     """World-space axis-aligned bounds of all placed geometry at the first motion sample
     (inverted infinite box when there is none).  `box(points)`: a mesh's (lo, hi)."""
@@ -433,6 +441,7 @@ def scene_bounds(desc: SceneDescription, box=points_box) -> tuple[np.ndarray, np
     for c, container in enumerate(desc.containers):
         boxes = [box(m.points) for m in container.meshes]
         boxes += [_spheres_box(s) for s in container.spheres]
+        boxes += [_curves_box(c) for c in container.curves]
         if not boxes:
             continue
         box_lo, box_hi = np.min([b[0] for b in boxes], axis=0), np.max([b[1] for b in boxes], axis=0)

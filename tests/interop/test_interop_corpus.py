@@ -23,7 +23,8 @@ from rtc.renderer.usd.stage import read_stage
 from tests.interop.interop_helpers import RTC, USD_CORPUS, corpus_files
 
 W, H, SPP = 48, 36, 4
-SURFACES = {'Mesh', 'Sphere', 'Cube', 'Cylinder', 'Cylinder_1', 'Cone', 'Capsule', 'Capsule_1', 'Plane'}
+SURFACES = {'Mesh', 'Sphere', 'Cube', 'Cylinder', 'Cylinder_1', 'Cone', 'Capsule', 'Capsule_1', 'Plane', 'Points',
+            'BasisCurves'}
 
 #: Files with surface gprims that must still render nothing, and why.
 EMPTY_BY_DESIGN = {
@@ -76,7 +77,13 @@ def surface_census(path) -> tuple[int, set[str]]:
     for prim in Usd.PrimRange.Stage(stage, Usd.TraverseInstanceProxies(Usd.PrimAllPrimsPredicate)):
         kind = prim.GetTypeName()
         types.add(str(kind))
-        if kind in SURFACES and (kind != 'Mesh' or UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(t)):
+        if kind == 'Mesh':
+            has_data = bool(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(t))
+        elif kind in ('Points', 'BasisCurves'):
+            has_data = bool(UsdGeom.PointBased(prim).GetPointsAttr().Get(t))
+        else:
+            has_data = True
+        if kind in SURFACES and has_data:
             count += 1
     return count, types
 
@@ -88,8 +95,6 @@ def empty_reason(rel: str) -> str | None:
     count, types = surface_census(USD_CORPUS / rel)
     if count:
         return None
-    if 'BasisCurves' in types:
-        return 'only BasisCurves (curves are not rendered; each is listed as skipped)'
     if 'Mesh' in types:
         return 'its meshes have no faces (an asset for composition tests)'
     if 'Camera' in types:
@@ -112,7 +117,7 @@ def check_file(rel: str):
         assert img.std() > 1e-4 and np.ptp(img) > 1e-3, \
             f'{rel}: image is (nearly) uniform: std {img.std():g}; warnings {desc.warnings}; skipped {desc.skipped}'
     else:
-        assert desc.triangle_counts() == (0, 0) and not any(c.spheres for c in desc.containers), (rel, reason)
+        assert desc.triangle_counts() == (0, 0) and not any(c.spheres or c.curves for c in desc.containers), (rel, reason)
         assert np.ptp(img) == 0, f'{rel} ({reason}): expected a uniform image'
 
 

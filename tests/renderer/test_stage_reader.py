@@ -16,7 +16,7 @@ import numpy as np
 import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade, Vt
 
-from rtc.renderer.description import DISTANT, POINT, RECT, SPHERE, Mesh
+from rtc.renderer.description import DISTANT, POINT, RECT, SPHERE, Curves, Mesh
 from rtc.renderer.errors import SceneError
 from rtc.renderer.host.info import describe
 from rtc.renderer.options import RenderOptions
@@ -133,9 +133,16 @@ def expected_placements(stage, desc) -> dict[str, list[np.ndarray]]:
             continue
         w = up @ world
         shape = shapes[0]
-        out[_identity_key(prim)].append(w @ shape.matrix if not isinstance(shape, Mesh)
-                                        else shape.points @ w[:3, :3].T + w[:3, 3])
+        out[_identity_key(prim)].append(_placed(shape, w))
     return out
+
+
+def _placed(shape, m: np.ndarray) -> np.ndarray:
+    """A gprim record placed by m: a mesh's points, a curves gprim's control points, a sphere's matrix."""
+    if isinstance(shape, (Mesh, Curves)):
+        points = shape.points if isinstance(shape, Mesh) else shape.vertices[:, :3]
+        return points @ m[:3, :3].T + m[:3, 3]
+    return m @ shape.matrix
 
 
 def actual_placements(stage, desc) -> dict[str, list[np.ndarray]]:
@@ -153,8 +160,7 @@ def actual_placements(stage, desc) -> dict[str, list[np.ndarray]]:
             if path in seen:
                 continue
             seen.add(path)
-            out[str(path)].append(m @ g.matrix if not isinstance(g, Mesh)
-                                  else g.points @ m[:3, :3].T + m[:3, 3])
+            out[str(path)].append(_placed(g, m))
     return out
 
 

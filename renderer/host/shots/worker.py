@@ -80,11 +80,11 @@ def _stage(job: Job):
 
 
 def same_containers(a, b) -> bool:
-    """Do two descriptions hold the same containers (mesh and sphere geometry, bit for bit)?"""
+    """Do two descriptions hold the same containers (mesh, sphere and curve geometry, bit for bit)?"""
     if len(a.containers) != len(b.containers):
         return False
     for ca, cb in zip(a.containers, b.containers):
-        if len(ca.meshes) != len(cb.meshes) or len(ca.spheres) != len(cb.spheres):
+        if len(ca.meshes) != len(cb.meshes) or len(ca.spheres) != len(cb.spheres) or len(ca.curves) != len(cb.curves):
             return False
         for ma, mb in zip(ca.meshes, cb.meshes):
             for x, y in ((ma.points, mb.points), (ma.triangles, mb.triangles)):
@@ -92,6 +92,10 @@ def same_containers(a, b) -> bool:
                     return False
         for sa, sb in zip(ca.spheres, cb.spheres):
             if not (np.array_equal(sa.matrix, sb.matrix) and np.array_equal(sa.balls(), sb.balls())):   # (radii too)
+                return False
+        for xa, xb in zip(ca.curves, cb.curves):
+            if xa.linear != xb.linear or not (np.array_equal(xa.vertices, xb.vertices)
+                                              and np.array_equal(xa.segments, xb.segments)):
                 return False
     return True
 

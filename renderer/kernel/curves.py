@@ -1,0 +1,105 @@
+"""The surface of a curve segment at a hit, as Embree's round curves intersect it (measured: the hits of
+`tests/renderer/test_curves.py` lie on these surfaces to float32 precision):
+
+* a cubic (Bezier) segment: the tube of circles of radius r(u) centred on the curve c(u), each in the plane
+  perpendicular to the curve there (where the radius is constant: the swept sphere's tube);
+* a linear segment: the cone tangent to the spheres of its two ends, with those spheres (round joints and ends):
+  the envelope of the spheres of radius r(u) swept along it.
+
+Embree reports the parameter u of the hit's circle or sphere (to float32 precision: refining it by Newton's method on
+(p - c) . c' (+ r r' for spheres) changed no test's result, measured).  `surface_point` evaluates the segment there
+in float64 and puts the point back on that circle or sphere, c + r w, as `shapes.surface` puts a sphere's hit on the
+sphere: its error does not grow with the length of the ray, and new rays leave from the surface, not from inside it.
+The normal: a sphere's, w; a circle's, from the surface's two tangents (`_circle_normal`: it leans back along the
+curve where the radius grows).
+
+Rows (`SceneData.crv`, float32 (k, 4, 4)): a segment's control points x, y, z, radius, as Embree has them; a
+linear segment's two ends in rows 0 and 1 (`GP_LINEAR`), read here as the Bezier of the same line.
+"""
+import math
+
+import numba as nb
+
+from .jit import SHADING_INLINE_JIT
+from .tables import GP_LINEAR
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _control(c, k, linear, i):
+    """Bezier control point i (x, y, z, r) of segment row k (a linear row's line, its points at thirds)."""
+    if linear:
+        a, b = (3 - i) / 3.0, i / 3.0
+        return (a * c[k, 0, 0] + b * c[k, 1, 0], a * c[k, 0, 1] + b * c[k, 1, 1],
+                a * c[k, 0, 2] + b * c[k, 1, 2], a * c[k, 0, 3] + b * c[k, 1, 3])
+    return float(c[k, i, 0]), float(c[k, i, 1]), float(c[k, i, 2]), float(c[k, i, 3])
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _weights(u):
+    """Cubic Bernstein weights at u and those of the first and second derivatives."""
+    s = 1.0 - u
+    return ((s * s * s, 3.0 * s * s * u, 3.0 * s * u * u, u * u * u),
+            (-3.0 * s * s, 3.0 * s * s - 6.0 * s * u, 6.0 * s * u - 3.0 * u * u, 3.0 * u * u),
+            (6.0 * s, 6.0 * u - 12.0 * s, 6.0 * s - 12.0 * u, 6.0 * u))
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def evaluate(q0, q1, q2, q3, u):
+    """(position and radius, first derivative, second derivative) of the Bezier q0..q3 (4-tuples) at u."""
+    w, dw, ddw = _weights(u)
+    c = (w[0] * q0[0] + w[1] * q1[0] + w[2] * q2[0] + w[3] * q3[0],
+         w[0] * q0[1] + w[1] * q1[1] + w[2] * q2[1] + w[3] * q3[1],
+         w[0] * q0[2] + w[1] * q1[2] + w[2] * q2[2] + w[3] * q3[2],
+         w[0] * q0[3] + w[1] * q1[3] + w[2] * q2[3] + w[3] * q3[3])
+    d = (dw[0] * q0[0] + dw[1] * q1[0] + dw[2] * q2[0] + dw[3] * q3[0],
+         dw[0] * q0[1] + dw[1] * q1[1] + dw[2] * q2[1] + dw[3] * q3[1],
+         dw[0] * q0[2] + dw[1] * q1[2] + dw[2] * q2[2] + dw[3] * q3[2],
+         dw[0] * q0[3] + dw[1] * q1[3] + dw[2] * q2[3] + dw[3] * q3[3])
+    dd = (ddw[0] * q0[0] + ddw[1] * q1[0] + ddw[2] * q2[0] + ddw[3] * q3[0],
+          ddw[0] * q0[1] + ddw[1] * q1[1] + ddw[2] * q2[1] + ddw[3] * q3[1],
+          ddw[0] * q0[2] + ddw[1] * q1[2] + ddw[2] * q2[2] + ddw[3] * q3[2],
+          ddw[0] * q0[3] + ddw[1] * q1[3] + ddw[2] * q2[3] + ddw[3] * q3[3])
+    return c, d, dd
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def surface_point(S, g, k, u, po, vo):
+    """(point on the surface, unit outward normal) in object space of segment row k of curves gprim g at Embree's
+    u, for the object-space hit point po of a ray of direction vo."""
+    c = S.crv
+    linear = S.gp_flags[g] & GP_LINEAR != 0
+    q0, q1, q2, q3 = _control(c, k, linear, 0), _control(c, k, linear, 1), _control(c, k, linear, 2), \
+        _control(c, k, linear, 3)
+    e, d, dd = evaluate(q0, q1, q2, q3, min(1.0, max(0.0, u)))
+    x = (po[0] - e[0], po[1] - e[1], po[2] - e[2])
+    r = e[3]
+    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if not linear and speed > 0.0:                      # the circle's plane: x without its part along the curve
+        t = (d[0] / speed, d[1] / speed, d[2] / speed)
+        a = x[0] * t[0] + x[1] * t[1] + x[2] * t[2]
+        x = (x[0] - a * t[0], x[1] - a * t[1], x[2] - a * t[2])
+    n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2]
+    if n2 > 0.0:
+        inv = 1.0 / math.sqrt(n2)
+        w = (x[0] * inv, x[1] * inv, x[2] * inv)
+    else:                                               # (the hit on the curve's axis: face the ray)
+        inv = -1.0 / math.sqrt(vo[0] * vo[0] + vo[1] * vo[1] + vo[2] * vo[2])
+        w = (vo[0] * inv, vo[1] * inv, vo[2] * inv)
+    p = (e[0] + r * w[0], e[1] + r * w[1], e[2] + r * w[2])
+    if linear or not speed > 0.0:                       # a sphere's normal (constant radius: the circle's too)
+        return p, w
+    return p, _circle_normal(d, dd, r, speed, w)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _circle_normal(d, dd, r, speed, w):
+    """The unit normal at c + r w of the surface of circles of radius r(u) perpendicular to the curve (w: unit,
+    perpendicular to c'): normalize(a w - r' t), a = |c'| - r w . t' (t: the unit tangent, t' = dt/du), as the
+    cross product of the surface's two tangents, the circle's carried along the curve without twisting."""
+    t = (d[0] / speed, d[1] / speed, d[2] / speed)
+    b = dd[0] * t[0] + dd[1] * t[1] + dd[2] * t[2]
+    tp = ((dd[0] - b * t[0]) / speed, (dd[1] - b * t[1]) / speed, (dd[2] - b * t[2]) / speed)
+    a = speed - r * (w[0] * tp[0] + w[1] * tp[1] + w[2] * tp[2])
+    n = (a * w[0] - d[3] * t[0], a * w[1] - d[3] * t[1], a * w[2] - d[3] * t[2])
+    inv = 1.0 / math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    return n[0] * inv, n[1] * inv, n[2] * inv

@@ -1,0 +1,216 @@
+"""UsdGeom.BasisCurves -> a `Curves` record: round tubes, as ray tracers draw curves (Embree's round curves,
+which Cycles and RenderMan's hair also are): the surface that a sphere of the curve's width sweeps along it.
+
+* ``type`` linear: chains of cones with round joints (Embree's round linear curves).  ``type`` cubic (the
+  fallback), every ``basis`` (bezier, the fallback; bspline; catmullRom): cubic Bezier segments, each
+  segment's four control points converted from its basis exactly (a change of basis of the same cubic).
+* ``wrap``: nonperiodic (the fallback); periodic (the curve closes: its last segments take their control points
+  from its start); pinned (bspline and catmullRom pass through their end points, by a phantom point at each
+  end, 2 P0 - P1, as the schema defines it; a pinned bezier or linear curve is nonperiodic).
+* ``widths`` are diameters (the radius is half): constant, uniform (a curve), varying (a segment's ends) or
+  vertex (a control point); unauthored, 1 (as Hydra draws them); 0 where a curve tapers to a point.  A width that fits no interpolation is warned
+  about and the first one used; the gprim's transform scales the radius by its mean scale, |det|^(1/3).
+* ``primvars:displayColor`` that varies over the curves (uniform, varying, vertex) is kept at each segment's
+  two ends (`Curves.colors`) and interpolated along it by the kernel (`shapes.corner_color`), as the mesh's
+  colours are; constant: the material fallback's colour.
+* Authored ``normals`` (ribbons facing them, in Storm) are warned about: the curves are drawn round.
+
+A curve whose vertex count does not fit its type, basis and wrap (a cubic bezier of 5 vertices, a curve of
+one) is left out and warned about, with the others kept; points that are not finite make the whole gprim
+unusable (`GeometryError`).
+"""
+from __future__ import annotations
+
+from typing import Callable
+
+import numpy as np
+from pxr import UsdGeom
+
+from ..description import Curves
+
+Warn = Callable[[str], None]
+
+# a segment's Bezier control points from its basis' four control points (rows: Bezier points)
+TO_BEZIER = {
+    'bezier': np.eye(4),
+    'bspline': np.array([[1.0, 4.0, 1.0, 0.0], [0.0, 4.0, 2.0, 0.0], [0.0, 2.0, 4.0, 0.0], [0.0, 1.0, 4.0, 1.0]]) / 6,
+    'catmullRom': np.array([[0.0, 6.0, 0.0, 0.0], [-1.0, 6.0, 1.0, 0.0], [0.0, 1.0, 6.0, -1.0], [0.0, 0.0, 6.0, 0.0]])
+    / 6,
+}
+NEIGHBOR_LEFT, NEIGHBOR_RIGHT = 1, 2         # Embree's RTC_CURVE_FLAG_NEIGHBOR_LEFT / _RIGHT
+
+
+def segment_counts(counts: np.ndarray, linear: bool, basis: str, wrap: str) -> np.ndarray:
+    """Segments of each curve of `counts` vertices (0 where the count does not fit), as UsdGeomBasisCurves
+    counts them."""
+    counts = np.asarray(counts, np.int64)
+    if linear:
+        return np.where(counts >= 2, counts - (wrap != 'periodic'), 0)
+    if basis == 'bezier':
+        if wrap == 'periodic':
+            return np.where((counts >= 3) & (counts % 3 == 0), counts // 3, 0)
+        return np.where((counts >= 4) & ((counts - 4) % 3 == 0), (counts - 4) // 3 + 1, 0)
+    if wrap == 'periodic':
+        return np.where(counts >= 3, counts, 0)
+    if wrap == 'pinned':
+        return np.where(counts >= 2, counts - 1, 0)
+    return np.where(counts >= 4, counts - 3, 0)
+
+
+def _pinned(values: np.ndarray, counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per-vertex values with a phantom vertex 2 v0 - v1 before each curve and 2 v[n-1] - v[n-2] after it;
+    -> (values, counts + 2)."""
+    off = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    last = off + counts - 1
+    where = np.column_stack([off, last + 1]).ravel()             # a curve's end before the next one's start
+    phantom = np.stack([2.0 * values[off] - values[off + 1], 2.0 * values[last] - values[last - 1]], axis=1)
+    out = np.insert(values, where, phantom.reshape(-1, *values.shape[1:]), axis=0)
+    return out, counts + 2
+
+
+def _control_index(counts: np.ndarray, nseg: np.ndarray, step: int, width: int, periodic: bool) -> np.ndarray:
+    """int64 (k, width): the vertices of each segment (curve after curve), wrapped within periodic curves."""
+    off = np.concatenate([[0], np.cumsum(counts)[:-1]])
+    curve = np.repeat(np.arange(len(counts)), nseg)
+    first = np.arange(int(nseg.sum())) - np.repeat(np.cumsum(nseg) - nseg, nseg)
+    local = first[:, None] * step + np.arange(width)
+    if periodic:
+        local = local % counts[curve][:, None]
+    return off[curve][:, None] + local
+
+
+def _per_vertex(values, interpolation: str, counts: np.ndarray, ends: int, what: str, warn: Warn):
+    """A primvar (widths: (n,), colours: (n, 3)) per vertex -> (values per vertex, or None; values per segment
+    end (varying), or None).  None, None: unusable (warned)."""
+    n, v = int(counts.sum()), np.asarray(values, np.float64)
+    if interpolation == UsdGeom.Tokens.constant or len(v) == 1:
+        return np.repeat(v[:1], n, axis=0), None
+    if interpolation == UsdGeom.Tokens.uniform and len(v) == len(counts):
+        return np.repeat(v, counts, axis=0), None
+    if interpolation == UsdGeom.Tokens.vertex and len(v) == n:
+        return v, None
+    if interpolation == UsdGeom.Tokens.varying and len(v) == ends:
+        return None, v
+    if len(v) == n:                                  # a count that only vertex interpolation fits
+        return v, None
+    warn(f'{what}: {len(v)} values for {len(counts)} curves of {n} vertices ({ends} segment ends) do not fit '
+         f'interpolation {interpolation}')
+    return None, None
+
+
+def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) -> list[Curves]:
+    """The `Curves` record of one BasisCurves prim (gprim-to-container matrix m).  `error`: the exception
+    class to raise where the gprim cannot be used; `display_color(prim, time)`: (values, interpolation) of a
+    displayColor that varies over it, or None (`geometry.varying_display_color`)."""
+    curves, path = UsdGeom.BasisCurves(prim), str(prim.GetPath())
+    kind = curves.GetTypeAttr().Get(time) or 'cubic'
+    basis = curves.GetBasisAttr().Get(time) or 'bezier'
+    wrap = curves.GetWrapAttr().Get(time) or 'nonperiodic'
+    if kind not in ('linear', 'cubic') or wrap not in ('nonperiodic', 'periodic', 'pinned') or \
+            (kind == 'cubic' and basis not in TO_BEZIER):
+        raise error(f'{path}: curves of type {kind!r}, basis {basis!r}, wrap {wrap!r} are not drawn')
+    linear = kind == 'linear'
+    p = curves.GetPointsAttr().Get(time)
+    p = np.zeros((0, 3)) if p is None else np.asarray(p, np.float64).reshape(-1, 3)
+    counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(time) or [], np.int64)
+    if int(counts.sum()) != len(p) or np.any(counts < 0):
+        raise error(f'{path}: curveVertexCounts sum to {int(counts.sum())} but there are {len(p)} points')
+    if not np.all(np.isfinite(p)):
+        raise error(f'{path}: points that are not finite')
+    nseg = segment_counts(counts, linear, basis, wrap)
+    if np.any(nseg == 0):
+        warn(f'{path}: {int(np.sum(nseg == 0))} of {len(counts)} curves have a vertex count that does not fit '
+             f'{kind} {"" if linear else basis + " "}{wrap} curves; left out')
+    if not nseg.any():
+        raise error(f'{path}: no curve to draw')
+    if curves.GetNormalsAttr().HasAuthoredValue():
+        warn(f'{path}: normals (ribbons facing them) are not drawn; the curves are round tubes')
+    ends = int(np.sum(np.where(nseg > 0, nseg + (wrap != 'periodic'), 0)))
+    w = curves.GetWidthsAttr().Get(time)
+    w = np.ones(1) if w is None or len(w) == 0 else np.asarray(w, np.float64).reshape(-1)
+    w_vertex, w_ends = _per_vertex(w, curves.GetWidthsInterpolation(), counts, ends, f'{path}: widths', warn)
+    if w_vertex is None and w_ends is None:
+        w_vertex = np.full(len(p), w[0])
+    colour = display_color(prim, time)
+    c_vertex = c_ends = None
+    if colour is not None:
+        c_vertex, c_ends = _per_vertex(colour[0], colour[1], counts, ends, f'{path}: primvars:displayColor', warn)
+        if c_vertex is None and c_ends is None:
+            c_vertex = np.repeat(colour[0].mean(0)[None], len(p), axis=0)
+    scale = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
+    g = m[:3, :3].T @ m[:3, :3]
+    if not np.allclose(g, np.trace(g) / 3.0 * np.eye(3), rtol=1e-6, atol=1e-12 * abs(np.trace(g))):
+        warn(f'{path}: a non-uniform scale; the curves stay round, their widths scaled by its mean scale')
+    columns = [p @ m[:3, :3].T + m[:3, 3]]
+    columns += [0.5 * scale * (w_vertex if w_vertex is not None else np.zeros(len(p)))[:, None]]
+    if c_vertex is not None:
+        columns.append(c_vertex)
+    return [_segments(path, np.column_stack(columns), counts, nseg, (linear, basis, wrap),
+                      0.5 * scale * w_ends if w_ends is not None else None, c_ends, warn, error)]
+
+
+def _segments(path, values, counts, nseg, shape, w_ends, c_ends, warn, error) -> Curves:
+    """The record from per-vertex values (n, 4 [+ 3 colours]) of the curves `counts` (nseg segments each;
+    0: left out) of `shape` = (linear, basis, wrap), with a radius (and colour) at each segment end where they
+    are varying (w_ends, c_ends: in curve order, the kept curves' alone)."""
+    linear, basis, wrap = shape
+    keep = np.repeat(nseg > 0, counts)
+    values, counts, nseg = values[keep], counts[nseg > 0], nseg[nseg > 0]
+    if wrap == 'pinned' and not linear and basis != 'bezier':
+        values, counts = _pinned(values, counts)
+    periodic = wrap == 'periodic'
+    end_first = np.cumsum(nseg + (not periodic)) - (nseg + (not periodic))       # each curve's first segment end
+    seg_end = np.repeat(end_first, nseg) + np.arange(int(nseg.sum())) - np.repeat(np.cumsum(nseg) - nseg, nseg)
+    seg_last = np.repeat(np.cumsum(nseg) - 1, nseg)
+    after = np.where(np.arange(len(seg_end)) == seg_last, np.repeat(end_first, nseg), seg_end + 1) \
+        if periodic else seg_end + 1
+    if linear:
+        index = _control_index(counts, nseg, 1, 2, periodic)
+        vertices = np.concatenate([values[index[:, 0]], values[index[:, 1]]], axis=1).reshape(-1, values.shape[1])
+        first = np.arange(int(nseg.sum())) - np.repeat(np.cumsum(nseg) - nseg, nseg)
+        # shared vertices: a curve's segments are consecutive, so each segment's end is the next one's start
+        starts = 2 * np.arange(len(index))
+        vertices, starts, flags = _chain(vertices, starts, first, nseg)
+        ends = (vertices[starts], vertices[starts + 1])
+    else:
+        index = _control_index(counts, nseg, 3 if basis == 'bezier' else 1, 4, periodic)
+        bez = np.einsum('ij,kjc->kic', TO_BEZIER[basis], values[index])           # (k, 4, columns)
+        vertices, starts, flags = bez.reshape(-1, values.shape[1]), 4 * np.arange(len(bez)), None
+        ends = (bez[:, 0], bez[:, 3])
+    if w_ends is not None:
+        if linear:
+            vertices[starts, 3], vertices[starts + 1, 3] = w_ends[seg_end], w_ends[after]
+        else:
+            t = np.arange(4) / 3.0
+            rows = starts[:, None] + np.arange(4)
+            vertices[rows, 3] = (1.0 - t) * w_ends[seg_end][:, None] + t * w_ends[after][:, None]
+    colors = None
+    if c_ends is not None:
+        colors = np.stack([c_ends[seg_end], c_ends[after]], axis=1)
+    elif values.shape[1] > 4:
+        colors = np.stack([ends[0][:, 4:7], ends[1][:, 4:7]], axis=1)
+    if colors is not None:
+        colors = np.ascontiguousarray(np.maximum(colors, 0.0), np.float32)
+    radius = vertices[:, 3]
+    bad = ~(np.isfinite(radius) & (radius >= 0.0))      # (0: a curve tapering to a point, as hair tips do)
+    if bad.any():
+        warn(f'{path}: {int(bad.sum())} control points with a width that is negative or not finite; drawn with '
+             'width 0')
+        vertices[bad, 3] = 0.0
+    if not np.any(vertices[:, 3] > 0.0):
+        raise error(f'{path}: no width is positive')
+    return Curves(path=path, vertices=np.ascontiguousarray(vertices[:, :4]), segments=starts.astype(np.int64),
+                  linear=linear, flags=flags, colors=colors)
+
+
+def _chain(vertices, starts, first, nseg):
+    """Linear segments (two vertices each, in curve order) -> shared vertices: each curve's vertices once, a
+    segment starting at its first; flags: the segments before and after it in the same curve join it."""
+    n_curves = len(nseg)
+    curve_of = np.repeat(np.arange(n_curves), nseg)
+    last = first == nseg[curve_of] - 1
+    keep = np.ones(len(vertices), bool)
+    keep[starts[~last] + 1] = False                  # a segment's end, but for a curve's last segment
+    new_index = np.cumsum(keep) - 1
+    flags = np.where(first > 0, NEIGHBOR_LEFT, 0) | np.where(~last, NEIGHBOR_RIGHT, 0)
+    return vertices[keep].copy(), new_index[starts], flags.astype(np.uint8)
