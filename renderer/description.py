@@ -71,9 +71,10 @@ class Sphere:
 
 @dataclass
 class Curves:
-    """UsdGeom.BasisCurves as round tubes (the surface a sphere of the curve's width sweeps along it), in its
-    container's space: cubic curves of any basis as cubic Bezier segments (four control points each), linear
-    curves as chains of cones with round joints (Embree's round curves: `usd/curves.py`)."""
+    """UsdGeom.BasisCurves as round tubes of the curve's width, in its container's space: cubic curves of any basis
+    as cubic Bezier segments (four control points each), linear curves as chains of cones with round joints
+    (Embree's round curves: `usd/curves.py`); with `normals`, flat ribbons facing them (Embree's normal-oriented
+    Bezier curves; a linear curve's segments then straight Bezier segments)."""
     path: str
     vertices: np.ndarray               # float64 (n, 4): control points x, y, z and the radius there, container space
     segments: np.ndarray               # int64 (k,): each segment's first vertex (cubic: 4 vertices, linear: 2)
@@ -81,6 +82,7 @@ class Curves:
     flags: Optional[np.ndarray] = None     # uint8 (k,) linear: 1 the segment before it joins it, 2 the one after
     colors: Optional[np.ndarray] = None    # float32 (k, 2, 3) displayColor at each segment's two ends, where it varies
     material: int = -1
+    normals: Optional[np.ndarray] = None   # float64 (n, 3) a unit normal a vertex: ribbons facing them (cubic only)
 
     def segment_rows(self) -> np.ndarray:
         """float64 (k, 4, 4): each segment's control points (a linear one's two ends, then its end again)."""

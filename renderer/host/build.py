@@ -27,7 +27,7 @@ from .gprim_tables import GprimTables
 
 SceneData = namedtuple('SceneData', [
     'gp_kind', 'gp_off', 'gp_flags', 'gp_material', 'gp_n_off', 'gp_uv_off', 'gp_c_off',
-    'tri_v', 'tri_n', 'tri_uv', 'tri_c', 'sph', 'crv',
+    'tri_v', 'tri_n', 'tri_uv', 'tri_c', 'sph', 'crv', 'crv_n',
     'pr_gp_start', 'pr_geom_off', 'pr_geom_gp',
     'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
     'mat_i', 'mat_f',
@@ -236,7 +236,8 @@ def _container_shapes(c: D.Container, ctr: np.ndarray):
         b[:, :3] -= ctr
         spheres.append(b)
     curves = [CurveGeometry(x.linear, (x.vertices - np.append(ctr, 0.0)).astype(np.float32),
-                            x.segments.astype(np.uint32), x.flags) for x in c.curves]
+                            x.segments.astype(np.uint32), x.flags,
+                            None if x.normals is None else x.normals.astype(np.float32)) for x in c.curves]
     return meshes, spheres, curves
 
 
@@ -267,7 +268,7 @@ def _prototypes(dev: Device, containers: list, tables: GprimTables, kept: list):
             e_spheres.append(cr.astype(np.float32))
         for x, geometry in zip(c.curves, curves):
             geom_to_gp.append(len(tables.kind))
-            tables.add_curves(geometry.segment_rows(), x)
+            tables.add_curves(geometry, x)
         protos.append(kept[ci] if kept else dev.prototype_scene(e_meshes, e_spheres, curve_gprims=curves))
         pr_geom.append(geom_to_gp)
     return protos, centers, radii, pr_gp_start, pr_geom, ellipsoids
@@ -528,7 +529,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         tri_v=_cat(tables.tri_v, (1, 3, 3), np.float32), tri_n=_cat(tables.tri_n, (1, 3, 3), np.float32),
         tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32), tri_c=_cat(tables.tri_c, (1, 3, 3), np.float32),
         sph=np.array(tables.sph, np.float64).reshape(-1, 4) if tables.sph else np.zeros((1, 4)),
-        crv=_cat(tables.crv, (1, 4, 4), np.float32),
+        crv=_cat(tables.crv, (1, 4, 4), np.float32), crv_n=_cat(tables.crv_n, (1, 4, 3), np.float32),
         pr_gp_start=np.array(pr_gp_start, np.int64), pr_geom_off=geom_off,
         pr_geom_gp=np.array([g for gs in pr_geom for g in gs] or [0], np.int64),
         in_proto=np.ascontiguousarray(in_proto[perm], np.int32),

@@ -72,12 +72,14 @@ _ERROR_NAMES = {
 RTC_GEOMETRY_TYPE_TRIANGLE = 0
 RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE = 16
 RTC_GEOMETRY_TYPE_ROUND_BEZIER_CURVE = 24
+RTC_GEOMETRY_TYPE_NORMAL_ORIENTED_BEZIER_CURVE = 26
 RTC_GEOMETRY_TYPE_SPHERE_POINT = 50
 RTC_GEOMETRY_TYPE_USER = 120
 RTC_GEOMETRY_TYPE_INSTANCE_ARRAY = 122
 
 RTC_BUFFER_TYPE_INDEX = 0
 RTC_BUFFER_TYPE_VERTEX = 1
+RTC_BUFFER_TYPE_NORMAL = 3
 RTC_BUFFER_TYPE_TRANSFORM = 23
 RTC_BUFFER_TYPE_FLAGS = 32
 
@@ -161,11 +163,13 @@ class CurveGeometry:
     """A curves gprim as Embree takes it: `vertices` float32 (n, 4), control points (x, y, z, radius);
     `segments` uint32 (k,), each segment's first vertex.  linear: round linear curves (cones with round joints;
     `flags` uint8 (k,): Embree's RTC_CURVE_FLAG_NEIGHBOR_LEFT (1) / _RIGHT (2), the segments before and after
-    it share its ends); else round Bezier curves (four vertices a segment)."""
+    it share its ends); else round Bezier curves (four vertices a segment), or with `normals` float32 (n, 3) (a
+    vertex's) normal-oriented Bezier curves: flat ribbons facing them."""
     linear: bool
     vertices: np.ndarray
     segments: np.ndarray
     flags: np.ndarray | None = None
+    normals: np.ndarray | None = None
 
     def segment_rows(self) -> np.ndarray:
         """float32 (k, 4, 4): each segment's control points, as Embree reads them (`description.segment_rows`)."""
@@ -383,6 +387,10 @@ class Device:
             if x.flags is not None:
                 buffers.append((RTC_BUFFER_TYPE_FLAGS, 0, RTC_FORMAT_UCHAR, np.uint8, np.asarray(x.flags, np.uint8)))
             kind = RTC_GEOMETRY_TYPE_ROUND_LINEAR_CURVE if x.linear else RTC_GEOMETRY_TYPE_ROUND_BEZIER_CURVE
+            if x.normals is not None:
+                normals = _as_rows(x.normals, 3, "curve normals")
+                buffers.append((RTC_BUFFER_TYPE_NORMAL, 0, RTC_FORMAT_FLOAT3, np.float32, normals))
+                kind = RTC_GEOMETRY_TYPE_NORMAL_ORIENTED_BEZIER_CURVE
             self._attach(scene, first_id + len(curves) + i, kind, buffers, mask=masks[n - len(curve_gprims) + i])
         return keep
 

@@ -7,7 +7,8 @@ as `build` converts them, and the per-primitive tables those rows point into: tr
 * A sphere or a point cloud: a row (centre, radius) a sphere (`gp_off`: the first), a cloud's colour a point.
 * Curves: a row of four control points (x, y, z, radius; a linear segment's two ends, then its end again) a
   segment, the same float32 numbers Embree intersects (`gp_off`: the first; flag GP_LINEAR for linear
-  segments); where their displayColor varies, a colour at each segment end (corners 0 and 1 of a `tri_c` row).
+  segments); where their displayColor varies, a colour at each segment end (corners 0 and 1 of a `tri_c` row);
+  ribbons (flag GP_RIBBON), the four control points' normals a segment (`crv_n`, from `gp_n_off`).
 """
 from __future__ import annotations
 
@@ -15,7 +16,7 @@ import numpy as np
 
 from .. import description as D
 from ..kernel.tables import (GP_CLOUD, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_LINEAR, GP_MESH,
-                             GP_SPHERE)
+                             GP_RIBBON, GP_SPHERE)
 
 
 class GprimTables:
@@ -24,7 +25,8 @@ class GprimTables:
     def __init__(self):
         self.kind, self.off, self.flags, self.material, self.n_off, self.uv_off = [], [], [], [], [], []
         self.c_off, self.tri_c = [], []
-        self.tri_v, self.tri_n, self.tri_uv, self.sph, self.crv = [], [], [], [], []
+        self.tri_v, self.tri_n, self.tri_uv, self.sph, self.crv, self.crv_n = [], [], [], [], [], []
+        self.n_crv_n = 0
         self.n_tri = self.n_crv = 0
         self._rows = {}                    # per-corner table -> rows so far
 
@@ -71,13 +73,21 @@ class GprimTables:
             self.off.append(len(self.sph))
             self.sph.extend(center_radius)
 
-    def add_curves(self, rows: np.ndarray, c: D.Curves) -> None:
-        """A curves slot: `rows` float32 (k, 4, 4), its segments' control points as Embree has them."""
+    def add_curves(self, geometry, c: D.Curves) -> None:
+        """A curves slot of `geometry` (an `embree.CurveGeometry`): its segments' control points as Embree has them;
+        a ribbon's normals a control point (`crv_n`, from `n_off`; flag GP_RIBBON)."""
+        rows = geometry.segment_rows()
         self.kind.append(GP_CURVES)
         self.material.append(c.material)
-        self.n_off.append(-1)
         self.uv_off.append(-1)
         flags = GP_LINEAR if c.linear else 0
+        if geometry.normals is None:
+            self.n_off.append(-1)
+        else:
+            flags |= GP_RIBBON
+            self.n_off.append(self.n_crv_n)
+            self.crv_n.append(D.segment_rows(geometry.normals, geometry.segments, False))
+            self.n_crv_n += len(rows)
         if c.colors is not None:
             flags |= GP_HAS_COLORS
             self.c_off.append(self._rows.get(id(self.tri_c), 0))

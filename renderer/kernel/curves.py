@@ -13,6 +13,12 @@ sphere: its error does not grow with the length of the ray, and new rays leave f
 The normal: a sphere's, w; a circle's, from the surface's two tangents (`_circle_normal`: it leans back along the
 curve where the radius grows).
 
+Ribbons (BasisCurves with normals: Embree's normal-oriented Bezier curves) keep Embree's hit point: Embree tessellates
+them, and its u is not the parameter of the hit's cross-section (measured: hits 1e-3 of the radius off the plane the
+curve's tangent and interpolated normal span there, and up to 0.12 along the curve), so the point cannot be rebuilt
+on an exact surface as a tube's is.  Their normal: the Bezier of the control points' normals at u, without its part
+along the curve (a shading and offset direction within a small angle of the tessellation's own).
+
 Rows (`SceneData.crv`, float32 (k, 4, 4)): a segment's control points x, y, z, radius, as Embree has them; a
 linear segment's two ends in rows 0 and 1 (`GP_LINEAR`), read here as the Bezier of the same line.
 """
@@ -21,7 +27,7 @@ import math
 import numba as nb
 
 from .jit import SHADING_INLINE_JIT
-from .tables import GP_LINEAR
+from .tables import GP_LINEAR, GP_RIBBON
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -71,9 +77,11 @@ def surface_point(S, g, k, u, po, vo):
     q0, q1, q2, q3 = _control(c, k, linear, 0), _control(c, k, linear, 1), _control(c, k, linear, 2), \
         _control(c, k, linear, 3)
     e, d, dd = evaluate(q0, q1, q2, q3, min(1.0, max(0.0, u)))
+    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if S.gp_flags[g] & GP_RIBBON:                       # (Embree's own point: see the module's notes)
+        return po, _ribbon_normal(S, S.gp_n_off[g] + k - S.gp_off[g], min(1.0, max(0.0, u)), d, speed, vo)
     x = (po[0] - e[0], po[1] - e[1], po[2] - e[2])
     r = e[3]
-    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
     if not linear and speed > 0.0:                      # the circle's plane: x without its part along the curve
         t = (d[0] / speed, d[1] / speed, d[2] / speed)
         a = x[0] * t[0] + x[1] * t[1] + x[2] * t[2]
@@ -89,6 +97,26 @@ def surface_point(S, g, k, u, po, vo):
     if linear or not speed > 0.0:                       # a sphere's normal (constant radius: the circle's too)
         return p, w
     return p, _circle_normal(d, dd, r, speed, w)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _ribbon_normal(S, j, u, d, speed, vo):
+    """A ribbon's unit normal at u of segment j's normals (`crv_n`): the Bezier of its four control points' normals,
+    without its part along the curve (the ribbon's own direction across is perpendicular to both)."""
+    c = S.crv_n
+    s = 1.0 - u
+    w = (s * s * s, 3.0 * s * s * u, 3.0 * s * u * u, u * u * u)
+    n = (w[0] * c[j, 0, 0] + w[1] * c[j, 1, 0] + w[2] * c[j, 2, 0] + w[3] * c[j, 3, 0],
+         w[0] * c[j, 0, 1] + w[1] * c[j, 1, 1] + w[2] * c[j, 2, 1] + w[3] * c[j, 3, 1],
+         w[0] * c[j, 0, 2] + w[1] * c[j, 1, 2] + w[2] * c[j, 2, 2] + w[3] * c[j, 3, 2])
+    if speed > 0.0:
+        a = (n[0] * d[0] + n[1] * d[1] + n[2] * d[2]) / (speed * speed)
+        n = (n[0] - a * d[0], n[1] - a * d[1], n[2] - a * d[2])
+    n2 = n[0] * n[0] + n[1] * n[1] + n[2] * n[2]
+    if not n2 > 0.0:                                    # (no usable normal: face the ray)
+        n, n2 = (-vo[0], -vo[1], -vo[2]), vo[0] * vo[0] + vo[1] * vo[1] + vo[2] * vo[2]
+    inv = 1.0 / math.sqrt(n2)
+    return n[0] * inv, n[1] * inv, n[2] * inv
 
 
 @nb.njit(**SHADING_INLINE_JIT)

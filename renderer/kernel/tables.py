@@ -17,7 +17,7 @@ Tables (arrays of `SceneData`, and the camera table):
 
 Enumerations stored in the tables: gprim kinds (GP_MESH, GP_SPHERE, GP_CURVES) and flags (GP_HAS_NORMALS,
 GP_HAS_UVS, GP_CLOUD - a sphere gprim of several spheres, a point cloud -, GP_HAS_COLORS, GP_LINEAR - curves
-of linear segments -, bits of `gp_flags`), texture
+of linear segments -, GP_RIBBON - curves facing their normals -, bits of `gp_flags`), texture
 wrap modes (WRAP_*, by UsdUVTexture name in `WRAP`).
 """
 from __future__ import annotations
@@ -109,7 +109,7 @@ CAM_COLS = CAMERA.width
 
 # gprim kinds (gp_kind) and flag bits (gp_flags)
 GP_MESH, GP_SPHERE, GP_CURVES = 0, 1, 2
-GP_HAS_NORMALS, GP_HAS_UVS, GP_CLOUD, GP_HAS_COLORS, GP_LINEAR = 1, 2, 4, 8, 16
+GP_HAS_NORMALS, GP_HAS_UVS, GP_CLOUD, GP_HAS_COLORS, GP_LINEAR, GP_RIBBON = 1, 2, 4, 8, 16, 32
 # texture wrap modes (tex_i[:, TI_WRAP_S / TI_WRAP_T]), by UsdUVTexture wrapS / wrapT token
 WRAP_REPEAT, WRAP_CLAMP, WRAP_MIRROR, WRAP_BLACK = 0, 1, 2, 3
 WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'black': WRAP_BLACK}
@@ -117,5 +117,5 @@ WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'blac
 __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE_F',
            'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_LEVELS', 'TREE_SLOTS', 'TABLES', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_CURVES',
-           'GP_HAS_NORMALS', 'GP_LINEAR',
+           'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON',
            'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

@@ -1,5 +1,5 @@
-"""UsdGeom.BasisCurves -> a `Curves` record: round tubes, as ray tracers draw curves (Embree's round curves,
-which Cycles and RenderMan's hair also are): the surface that a sphere of the curve's width sweeps along it.
+"""UsdGeom.BasisCurves (and NurbsCurves, as their control cage) -> a `Curves` record: round tubes of the curve's
+width, as ray tracers draw curves (Embree's round curves, as Cycles' hair; their surfaces: `kernel/curves.py`).
 
 * ``type`` linear: chains of cones with round joints (Embree's round linear curves).  ``type`` cubic (the
   fallback), every ``basis`` (bezier, the fallback; bspline; catmullRom): cubic Bezier segments, each
@@ -8,12 +8,15 @@ which Cycles and RenderMan's hair also are): the surface that a sphere of the cu
   from its start); pinned (bspline and catmullRom pass through their end points, by a phantom point at each
   end, 2 P0 - P1, as the schema defines it; a pinned bezier or linear curve is nonperiodic).
 * ``widths`` are diameters (the radius is half): constant, uniform (a curve), varying (a segment's ends) or
-  vertex (a control point); unauthored, 1 (as Hydra draws them); 0 where a curve tapers to a point.  A width that fits no interpolation is warned
-  about and the first one used; the gprim's transform scales the radius by its mean scale, |det|^(1/3).
+  vertex (a control point); unauthored, 1 (as Hydra draws them); 0 where a curve tapers to a point.  A width
+  that fits no interpolation is warned about and the first one used; the gprim's transform scales the radius by
+  its mean scale, |det|^(1/3).
 * ``primvars:displayColor`` that varies over the curves (uniform, varying, vertex) is kept at each segment's
   two ends (`Curves.colors`) and interpolated along it by the kernel (`shapes.corner_color`), as the mesh's
   colours are; constant: the material fallback's colour.
 * Authored ``normals`` (ribbons facing them, in Storm) are warned about: the curves are drawn round.
+* UsdGeom.NurbsCurves: their control cage, linear curves through their control points, as usdImaging draws them
+  (its NurbsCurves adapter gives Storm a linear BasisCurves topology of the same points), warned.
 
 A curve whose vertex count does not fit its type, basis and wrap (a cubic bezier of 5 vertices, a curve of
 one) is left out and warned about, with the others kept; points that are not finite make the whole gprim
@@ -93,8 +96,9 @@ def _per_vertex(values, interpolation: str, counts: np.ndarray, ends: int, what:
         return None, v
     if len(v) == n:                                  # a count that only vertex interpolation fits
         return v, None
-    warn(f'{what}: {len(v)} values for {len(counts)} curves of {n} vertices ({ends} segment ends) do not fit '
-         f'interpolation {interpolation}')
+    curves = f'{len(counts)} curve' + ('s' if len(counts) != 1 else '')
+    warn(f'{what}: {len(v)} values for {curves} of {n} vertices ({ends} segment ends) do not fit interpolation '
+         f'{interpolation}')
     return None, None
 
 
@@ -102,13 +106,30 @@ def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) ->
     """The `Curves` record of one BasisCurves prim (gprim-to-container matrix m).  `error`: the exception
     class to raise where the gprim cannot be used; `display_color(prim, time)`: (values, interpolation) of a
     displayColor that varies over it, or None (`geometry.varying_display_color`)."""
-    curves, path = UsdGeom.BasisCurves(prim), str(prim.GetPath())
+    curves = UsdGeom.BasisCurves(prim)
     kind = curves.GetTypeAttr().Get(time) or 'cubic'
     basis = curves.GetBasisAttr().Get(time) or 'bezier'
     wrap = curves.GetWrapAttr().Get(time) or 'nonperiodic'
     if kind not in ('linear', 'cubic') or wrap not in ('nonperiodic', 'periodic', 'pinned') or \
             (kind == 'cubic' and basis not in TO_BEZIER):
-        raise error(f'{path}: curves of type {kind!r}, basis {basis!r}, wrap {wrap!r} are not drawn')
+        raise error(f'{prim.GetPath()}: curves of type {kind!r}, basis {basis!r}, wrap {wrap!r} are not drawn')
+    return _curves(curves, (kind, basis, wrap), m, time, warn, error, display_color)
+
+
+def nurbs_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) -> list[Curves]:
+    """The `Curves` record of one NurbsCurves prim: its control cage, linear segments through its control points,
+    with its widths and colours, as usdImaging draws NurbsCurves (`UsdImagingNurbsCurvesAdapter`: a linear,
+    nonperiodic BasisCurves topology of the same points; knots, order, weights and ranges unused), warned."""
+    warn(f'{prim.GetPath()}: NurbsCurves drawn as their control cage (linear segments through the control points), '
+         'as usdImaging draws them')
+    cage = ('linear', 'bezier', 'nonperiodic')
+    return _curves(UsdGeom.NurbsCurves(prim), cage, m, time, warn, error, display_color)
+
+
+def _curves(curves, shape, m, time, warn: Warn, error, display_color) -> list[Curves]:
+    """The record of a UsdGeom.Curves prim read as curves of `shape` = (type, basis, wrap)."""
+    kind, basis, wrap = shape
+    path = str(curves.GetPath())
     linear = kind == 'linear'
     p = curves.GetPointsAttr().Get(time)
     p = np.zeros((0, 3)) if p is None else np.asarray(p, np.float64).reshape(-1, 3)
@@ -123,15 +144,13 @@ def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) ->
              f'{kind} {"" if linear else basis + " "}{wrap} curves; left out')
     if not nseg.any():
         raise error(f'{path}: no curve to draw')
-    if curves.GetNormalsAttr().HasAuthoredValue():
-        warn(f'{path}: normals (ribbons facing them) are not drawn; the curves are round tubes')
     ends = int(np.sum(np.where(nseg > 0, nseg + (wrap != 'periodic'), 0)))
     w = curves.GetWidthsAttr().Get(time)
     w = np.ones(1) if w is None or len(w) == 0 else np.asarray(w, np.float64).reshape(-1)
     w_vertex, w_ends = _per_vertex(w, curves.GetWidthsInterpolation(), counts, ends, f'{path}: widths', warn)
     if w_vertex is None and w_ends is None:
         w_vertex = np.full(len(p), w[0])
-    colour = display_color(prim, time)
+    colour = display_color(curves.GetPrim(), time)
     c_vertex = c_ends = None
     if colour is not None:
         c_vertex, c_ends = _per_vertex(colour[0], colour[1], counts, ends, f'{path}: primvars:displayColor', warn)
@@ -143,17 +162,43 @@ def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) ->
         warn(f'{path}: a non-uniform scale; the curves stay round, their widths scaled by its mean scale')
     columns = [p @ m[:3, :3].T + m[:3, 3]]
     columns += [0.5 * scale * (w_vertex if w_vertex is not None else np.zeros(len(p)))[:, None]]
-    if c_vertex is not None:
-        columns.append(c_vertex)
-    return [_segments(path, np.column_stack(columns), counts, nseg, (linear, basis, wrap),
-                      0.5 * scale * w_ends if w_ends is not None else None, c_ends, warn, error)]
+    varying = {3: 0.5 * scale * w_ends if w_ends is not None else None}
+    if c_vertex is not None or c_ends is not None:
+        columns.append(c_vertex if c_vertex is not None else np.zeros((len(p), 3)))
+        varying['colour'] = c_ends
+    n_vertex, n_ends = _normals(curves, counts, ends, time, warn)
+    if n_vertex is not None or n_ends is not None:           # ribbons: normals as normals go, by m's cofactors
+        cof = np.linalg.inv(m[:3, :3]).T
+        columns.append(n_vertex @ cof.T if n_vertex is not None else np.zeros((len(p), 3)))
+        varying['normal'] = n_ends @ cof.T if n_ends is not None else None
+    shape = (linear, basis, wrap, 'normal' in varying)
+    return [_segments(path, np.column_stack(columns), counts, nseg, shape, varying, warn, error)]
 
 
-def _segments(path, values, counts, nseg, shape, w_ends, c_ends, warn, error) -> Curves:
-    """The record from per-vertex values (n, 4 [+ 3 colours]) of the curves `counts` (nseg segments each;
-    0: left out) of `shape` = (linear, basis, wrap), with a radius (and colour) at each segment end where they
-    are varying (w_ends, c_ends: in curve order, the kept curves' alone)."""
-    linear, basis, wrap = shape
+def _normals(curves, counts, ends: int, time, warn: Warn):
+    """A BasisCurves' authored `normals` (ribbons facing them) -> (per vertex, or None; per segment end, or None);
+    (None, None) without normals, or with normals that fit no interpolation (warned: drawn as tubes)."""
+    if not isinstance(curves, UsdGeom.BasisCurves) or not curves.GetNormalsAttr().HasAuthoredValue():
+        return None, None
+    n = curves.GetNormalsAttr().Get(time)
+    n = np.zeros((0, 3)) if n is None else np.asarray(n, np.float64).reshape(-1, 3)
+    where = f'{curves.GetPath()}: normals'
+    if not len(n) or not np.all(np.isfinite(n)):
+        warn(f'{where} are empty or not finite; the curves are drawn as round tubes')
+        return None, None
+    n_vertex, n_ends = _per_vertex(n, curves.GetNormalsInterpolation(), counts, ends, where, warn)
+    if n_vertex is None and n_ends is None:
+        warn(f'{where}: the curves are drawn as round tubes')
+    return n_vertex, n_ends
+
+
+def _segments(path, values, counts, nseg, shape, varying: dict, warn, error) -> Curves:
+    """The record from per-vertex values (n, 4 [+ 3 colours] [+ 3 normals]: columns 0-2 the point, 3 the radius,
+    then those `varying` names, in that order) of the curves `counts` (nseg segments each; 0: left out) of
+    `shape` = (linear, basis, wrap, ribbons); `varying`: {3 (radius) | 'colour' | 'normal': values at each
+    segment end (in curve order, the kept curves' alone), or None where the per-vertex columns hold them}.
+    Ribbons (normals) are cubic: a linear curve's segments become straight Bezier segments."""
+    linear, basis, wrap, ribbons = shape
     keep = np.repeat(nseg > 0, counts)
     values, counts, nseg = values[keep], counts[nseg > 0], nseg[nseg > 0]
     if wrap == 'pinned' and not linear and basis != 'bezier':
@@ -164,33 +209,51 @@ def _segments(path, values, counts, nseg, shape, w_ends, c_ends, warn, error) ->
     seg_last = np.repeat(np.cumsum(nseg) - 1, nseg)
     after = np.where(np.arange(len(seg_end)) == seg_last, np.repeat(end_first, nseg), seg_end + 1) \
         if periodic else seg_end + 1
-    if linear:
+    thirds = np.arange(4) / 3.0
+    if linear and not ribbons:
         index = _control_index(counts, nseg, 1, 2, periodic)
         vertices = np.concatenate([values[index[:, 0]], values[index[:, 1]]], axis=1).reshape(-1, values.shape[1])
         first = np.arange(int(nseg.sum())) - np.repeat(np.cumsum(nseg) - nseg, nseg)
         # shared vertices: a curve's segments are consecutive, so each segment's end is the next one's start
-        starts = 2 * np.arange(len(index))
-        vertices, starts, flags = _chain(vertices, starts, first, nseg)
-        ends = (vertices[starts], vertices[starts + 1])
+        vertices, starts, flags = _chain(vertices, 2 * np.arange(len(index)), first, nseg)
+        rows, t = np.column_stack([starts, starts + 1]), np.array([0.0, 1.0])
     else:
-        index = _control_index(counts, nseg, 3 if basis == 'bezier' else 1, 4, periodic)
-        bez = np.einsum('ij,kjc->kic', TO_BEZIER[basis], values[index])           # (k, 4, columns)
-        vertices, starts, flags = bez.reshape(-1, values.shape[1]), 4 * np.arange(len(bez)), None
-        ends = (bez[:, 0], bez[:, 3])
-    if w_ends is not None:
-        if linear:
-            vertices[starts, 3], vertices[starts + 1, 3] = w_ends[seg_end], w_ends[after]
+        if linear:                                      # (a straight Bezier: its points at thirds)
+            two = values[_control_index(counts, nseg, 1, 2, periodic)]
+            bez = (1.0 - thirds)[None, :, None] * two[:, :1] + thirds[None, :, None] * two[:, 1:]
         else:
-            t = np.arange(4) / 3.0
-            rows = starts[:, None] + np.arange(4)
-            vertices[rows, 3] = (1.0 - t) * w_ends[seg_end][:, None] + t * w_ends[after][:, None]
+            index = _control_index(counts, nseg, 3 if basis == 'bezier' else 1, 4, periodic)
+            bez = np.einsum('ij,kjc->kic', TO_BEZIER[basis], values[index])       # (k, 4, columns)
+        vertices, starts, flags = bez.reshape(-1, values.shape[1]), 4 * np.arange(len(bez)), None
+        rows, t = starts[:, None] + np.arange(4), thirds
+    cols, nxt = {3: [3]}, 4
+    for name in varying:
+        if name != 3:
+            cols[name], nxt = [nxt, nxt + 1, nxt + 2], nxt + 3
+    for name, ends in varying.items():
+        if ends is not None:                            # values at segment ends: along the segment, linearly
+            a, b = ends[seg_end], ends[after]
+            for k, c in enumerate(cols[name]):
+                vertices[rows, c] = (1.0 - t) * (a if a.ndim == 1 else a[:, k])[:, None] \
+                    + t * (b if b.ndim == 1 else b[:, k])[:, None]
+    return _record(path, vertices, starts, flags, cols, (linear and not ribbons, ribbons), warn, error)
+
+
+def _record(path, vertices, starts, flags, cols, kind, warn, error) -> Curves:
+    """The `Curves` record of the control points `vertices` (columns `cols`) of segments `starts`; kind =
+    (linear, ribbons)."""
+    linear, ribbons = kind
+    last = starts + (1 if linear else 3)
     colors = None
-    if c_ends is not None:
-        colors = np.stack([c_ends[seg_end], c_ends[after]], axis=1)
-    elif values.shape[1] > 4:
-        colors = np.stack([ends[0][:, 4:7], ends[1][:, 4:7]], axis=1)
-    if colors is not None:
-        colors = np.ascontiguousarray(np.maximum(colors, 0.0), np.float32)
+    if 'colour' in cols:
+        c = cols['colour']
+        colors = np.ascontiguousarray(np.maximum(np.stack([vertices[starts][:, c], vertices[last][:, c]], axis=1),
+                                                 0.0), np.float32)
+    normals = None
+    if ribbons:
+        normals = vertices[:, cols['normal']]
+        length = np.linalg.norm(normals, axis=1)
+        normals = normals / np.where(length > 0.0, length, 1.0)[:, None]
     radius = vertices[:, 3]
     bad = ~(np.isfinite(radius) & (radius >= 0.0))      # (0: a curve tapering to a point, as hair tips do)
     if bad.any():
@@ -200,7 +263,8 @@ def _segments(path, values, counts, nseg, shape, w_ends, c_ends, warn, error) ->
     if not np.any(vertices[:, 3] > 0.0):
         raise error(f'{path}: no width is positive')
     return Curves(path=path, vertices=np.ascontiguousarray(vertices[:, :4]), segments=starts.astype(np.int64),
-                  linear=linear, flags=flags, colors=colors)
+                  linear=linear, flags=flags, colors=colors,
+                  normals=None if normals is None else np.ascontiguousarray(normals))
 
 
 def _chain(vertices, starts, first, nseg):

@@ -160,7 +160,7 @@ def varying_display_color(prim: Usd.Prim, time):
     keeps its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), curves a
     colour at each segment end (`Curves.colors`), which a
     material fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree)."""
-    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.BasisCurves)):
+    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves)):
         return None
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
@@ -520,9 +520,14 @@ def _basis_curves(prim, m, time, warn):
     return basis_curves(prim, m, time, warn, GeometryError, varying_display_color)
 
 
+def _nurbs_curves(prim, m, time, warn):
+    from .curves import nurbs_curves
+    return nurbs_curves(prim, m, time, warn, GeometryError, varying_display_color)
+
+
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
 _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,
-    'Plane': _plane, 'Points': _points, 'BasisCurves': _basis_curves,
+    'Plane': _plane, 'Points': _points, 'BasisCurves': _basis_curves, 'NurbsCurves': _nurbs_curves,
 }

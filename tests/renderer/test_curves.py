@@ -26,7 +26,7 @@ _STAGES = []
 
 # --------------------------------------------------------------------------- reading
 def _curves(kind='cubic', basis='bezier', wrap='nonperiodic', counts=(4,), points=None, widths=None,
-            interpolation=None, colors=None, color_interpolation=None, normals=False):
+            interpolation=None, colors=None, color_interpolation=None):
     stage = Usd.Stage.CreateInMemory()
     c = UsdGeom.BasisCurves.Define(stage, '/c')
     c.CreateTypeAttr(kind)
@@ -44,8 +44,6 @@ def _curves(kind='cubic', basis='bezier', wrap='nonperiodic', counts=(4,), point
     if colors is not None:
         pv = c.CreateDisplayColorPrimvar(color_interpolation or UsdGeom.Tokens.constant)
         pv.Set(Vt.Vec3fArray([Gf.Vec3f(*map(float, x)) for x in colors]))
-    if normals:
-        c.CreateNormalsAttr([Gf.Vec3f(0, 0, 1)] * sum(counts))
     _STAGES.append(stage)                                # (a prim lives as long as its stage)
     return stage.GetPrimAtPath('/c'), np.asarray(points, np.float32).astype(np.float64)     # (as USD holds them)
 
@@ -167,10 +165,14 @@ def test_bad_curves_are_left_out_and_the_rest_kept():
         _read(_curves(basis='hermite')[0])
 
 
-def test_normals_and_non_uniform_scale_are_warned_about():
-    rec, warnings = _read(_curves(normals=True)[0], m=np.diag([1.0, 2.0, 4.0, 1.0]))
-    assert any('normals' in w for w in warnings) and any('non-uniform scale' in w for w in warnings)
+def test_a_non_uniform_scale_is_warned_about_and_turns_normals_as_normals():
+    prim, _ = _curves()
+    UsdGeom.BasisCurves(prim).CreateNormalsAttr([Gf.Vec3f(0, 1, 1)])
+    UsdGeom.BasisCurves(prim).SetNormalsInterpolation(UsdGeom.Tokens.constant)
+    rec, warnings = _read(prim, m=np.diag([1.0, 2.0, 4.0, 1.0]))
+    assert warnings == ['/c: a non-uniform scale; the curves stay round, their widths scaled by its mean scale']
     np.testing.assert_allclose(rec.vertices[:, 3], 0.5 * 2.0)      # radius x |det|^(1/3)
+    np.testing.assert_allclose(rec.normals, np.tile([0.0, 2.0, 1.0], (4, 1)) / math.sqrt(5.0), atol=1e-12)
 
 
 def test_display_color_varying_over_curves_is_kept_at_segment_ends():
@@ -458,18 +460,95 @@ def test_a_width_of_zero_tapers_to_a_point_and_a_negative_one_is_warned_about():
 
 def test_the_curves_example_scene():
     """scenes/curves.usda: the tuft of 80 blades (pinned bspline, 5 points: 4 segments each) is one prototype placed
-    seven times; the knot (periodic bspline of 72 points: 72 segments), the spring (pinned catmullRom of 64: 63) and
-    the wire (two linear curves of 12: 22) are placed once; colours a blade and a vertex; no warning; a small path
-    render is finite and lit."""
+    seven times; the knot (periodic bspline of 72 points: 72 segments), the spring (pinned catmullRom of 64: 63),
+    the wire (two linear curves of 12: 22) and the ribbon (pinned bspline of 24 with normals: 23) are placed once;
+    colours a blade and a vertex; no warning; a small path render is finite and lit."""
     from pathlib import Path
     desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'curves.usda'))
     assert not desc.warnings and not desc.skipped
     curves = {x.path: (x, k) for k, c in enumerate(desc.containers) for x in c.curves}
     assert {p: len(x.segments) for p, (x, _) in curves.items()} == {
-        '/__Prototype_1/Blades': 320, '/World/Knot': 72, '/World/Spring': 63, '/World/Wire': 22}
+        '/__Prototype_1/Blades': 320, '/World/Knot': 72, '/World/Spring': 63, '/World/Wire': 22, '/World/Ribbon': 23}
     blades, k = curves['/__Prototype_1/Blades']
     assert np.count_nonzero(desc.instances.container == k) == 7
     assert blades.colors.shape == (320, 2, 3) and curves['/World/Spring'][0].colors.shape == (63, 2, 3)
     assert curves['/World/Wire'][0].linear and curves['/World/Knot'][0].colors is None
+    assert curves['/World/Ribbon'][0].normals.shape == (4 * 23, 3) and curves['/World/Knot'][0].normals is None
     img = render(desc, RenderOptions(width=40, height=30, spp=4, integrator='path', max_depth=2)).image
     assert np.isfinite(img).all() and img.mean() > 0.05
+
+
+def test_nurbs_curves_are_drawn_as_their_control_cage_as_usdimaging_draws_them():
+    """usdImaging's NurbsCurves adapter gives Storm a linear, nonperiodic BasisCurves topology of the control points:
+    so does rtc, with the widths and colours, and says so."""
+    stage = Usd.Stage.CreateInMemory()
+    c = UsdGeom.NurbsCurves.Define(stage, '/n')
+    pts = np.array([[0, 0, 0], [1, 1, 0], [2, 1, 0], [3, 0, 0], [0, 0, 2], [1, 1, 2], [2, 0, 2]], float)
+    c.CreatePointsAttr([Gf.Vec3f(*p) for p in pts])
+    c.CreateCurveVertexCountsAttr([4, 3])
+    c.CreateOrderAttr([4, 3])
+    c.CreateKnotsAttr([0, 0, 0, 0, 1, 1, 1, 1, 0, 0, 0, 1, 1, 1])
+    c.CreateWidthsAttr([0.2, 0.4])
+    c.SetWidthsInterpolation(UsdGeom.Tokens.uniform)
+    c.CreateDisplayColorPrimvar(UsdGeom.Tokens.uniform).Set([Gf.Vec3f(1, 0, 0), Gf.Vec3f(0, 0, 1)])
+    rec, warnings = _read(stage.GetPrimAtPath('/n'))
+    assert rec.linear and warnings == ['/n: NurbsCurves drawn as their control cage (linear segments through the '
+                                       'control points), as usdImaging draws them']
+    np.testing.assert_array_equal(rec.vertices[:, :3], pts)
+    np.testing.assert_allclose(rec.vertices[:, 3], [0.1] * 4 + [0.2] * 3)
+    np.testing.assert_array_equal(rec.segments, [0, 1, 2, 4, 5])
+    np.testing.assert_allclose(rec.colors[:, 0], [[1, 0, 0]] * 3 + [[0, 0, 1]] * 2)
+
+
+# --------------------------------------------------------------------------- ribbons (BasisCurves with normals)
+def test_normals_make_ribbons_facing_them():
+    """Normals a vertex go through the basis as the points do (unit length after); a linear curve with normals
+    becomes straight Bezier segments (Embree has no normal-oriented linear curves); varying normals run linearly
+    along each segment."""
+    prim, p = _curves(kind='linear', counts=(3,), widths=[0.2])
+    UsdGeom.BasisCurves(prim).CreateNormalsAttr([Gf.Vec3f(0, 0, 2), Gf.Vec3f(0, 1, 1), Gf.Vec3f(0, 1, 0)])
+    UsdGeom.BasisCurves(prim).SetNormalsInterpolation(UsdGeom.Tokens.vertex)
+    rec, warnings = _read(prim)
+    assert not warnings and not rec.linear and rec.flags is None
+    rows = rec.segment_rows()
+    np.testing.assert_allclose(rows[:, :, :3], [[p[0] + (p[1] - p[0]) * k / 3 for k in range(4)],
+                                                [p[1] + (p[2] - p[1]) * k / 3 for k in range(4)]], atol=1e-12)
+    n = rec.normals[rec.segments[:, None] + np.arange(4)]
+    expect = np.array([[(0, 0, 2), (0, 1, 1)], [(0, 1, 1), (0, 1, 0)]], float)
+    raw = (1 - np.arange(4) / 3)[None, :, None] * expect[:, :1] + (np.arange(4) / 3)[None, :, None] * expect[:, 1:]
+    np.testing.assert_allclose(n, raw / np.linalg.norm(raw, axis=2, keepdims=True), atol=1e-12)
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_a_ribbon_tilted_from_the_view_covers_its_projected_area_and_shades_as_its_cosine(integrator):
+    """A straight ribbon of width 2 r along x whose normal leans 60 degrees from the view direction, seen by an
+    orthographic camera: it covers 2 r L cos(60); lit by a delta distant light along the view, a grey Lambert
+    ribbon's radiance is 0.5 E cos(60) / pi (path; cook's course Lambertian 0.5 E cos(60)) wherever it covers a
+    pixel whole."""
+    r, half, n, width, E = 0.6, 1.5, 48, 4.0, 2.0
+    th = math.radians(60.0)
+    v = np.column_stack([np.linspace(-half, half, 4), np.zeros(4), np.zeros(4), np.full(4, r)])
+    ribbon = D.Curves('/r', vertices=v, segments=np.array([0]), linear=False, material=0,
+                      normals=np.tile([0.0, -math.sin(th), math.cos(th)], (4, 1)))
+    opts = RenderOptions(spp=256, sampler='sobol', filter='box', integrator=integrator,
+                         max_depth=1 if integrator == 'path' else None)
+    desc = scene([D.Container('/p', curves=[ribbon])], [BLACK], [], _ortho(width), width=n, height=n,
+                 background=(1, 1, 1))
+    coverage = 1.0 - render(desc, opts).image[..., 0]
+    assert coverage.sum() * (width / n) ** 2 == pytest.approx(2 * r * 2 * half * math.cos(th), rel=4e-3)
+    light = D.Light('/sun', D.DISTANT, np.eye(4), (E, E, E), angle=0.0)
+    desc = scene([D.Container('/p', curves=[ribbon])], [GREY], [light], _ortho(width), width=n, height=n)
+    img = render(desc, opts).image[..., 0]
+    whole = coverage > 1 - 1e-6
+    assert whole.sum() > 100
+    brdf = 0.5 / np.pi if integrator == 'path' else 0.5
+    np.testing.assert_allclose(img[whole], brdf * E * math.cos(th), rtol=1e-4)
+
+
+def test_normals_that_fit_no_interpolation_leave_round_tubes_and_a_warning():
+    prim, _ = _curves(counts=(4,))
+    UsdGeom.BasisCurves(prim).CreateNormalsAttr([Gf.Vec3f(0, 0, 1)] * 3)
+    rec, warnings = _read(prim)
+    assert rec.normals is None
+    assert warnings == ['/c: normals: 3 values for 1 curve of 4 vertices (2 segment ends) do not fit interpolation '
+                        'vertex', '/c: normals: the curves are drawn as round tubes']
