@@ -552,3 +552,18 @@ def test_normals_that_fit_no_interpolation_leave_round_tubes_and_a_warning():
     assert rec.normals is None
     assert warnings == ['/c: normals: 3 values for 1 curve of 4 vertices (2 segment ends) do not fit interpolation '
                         'vertex', '/c: normals: the curves are drawn as round tubes']
+
+
+def test_a_shots_next_frame_reuses_curves_only_when_their_bvh_would_be_the_same():
+    """`shots.worker.same_containers`: curves whose points, segments or (ribbons) normals changed are rebuilt."""
+    import copy
+    from rtc.renderer.host.shots.worker import same_containers
+    v = np.column_stack([np.linspace(-1, 1, 4), np.zeros((4, 2)), np.full(4, 0.1)])
+    rib = D.Curves('/r', vertices=v, segments=np.array([0]), linear=False, normals=np.tile([0.0, 0.0, 1.0], (4, 1)))
+    a = scene([D.Container('/p', curves=[rib])], [GREY], [], _ortho(2.0))
+    assert same_containers(a, copy.deepcopy(a))
+    for change in (lambda x: x.vertices.__setitem__((0, 1), 1e-9), lambda x: x.normals.__setitem__((0, 1), 1e-9),
+                   lambda x: setattr(x, 'normals', None)):
+        b = copy.deepcopy(a)
+        change(b.containers[0].curves[0])
+        assert not same_containers(a, b)

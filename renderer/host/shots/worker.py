@@ -93,9 +93,10 @@ def same_containers(a, b) -> bool:
         for sa, sb in zip(ca.spheres, cb.spheres):
             if not (np.array_equal(sa.matrix, sb.matrix) and np.array_equal(sa.balls(), sb.balls())):   # (radii too)
                 return False
-        for xa, xb in zip(ca.curves, cb.curves):
-            if xa.linear != xb.linear or not (np.array_equal(xa.vertices, xb.vertices)
-                                              and np.array_equal(xa.segments, xb.segments)):
+        for xa, xb in zip(ca.curves, cb.curves):         # (a ribbon's normals are in its BVH too)
+            if xa.linear != xb.linear or (xa.normals is None) != (xb.normals is None) or not (
+                    np.array_equal(xa.vertices, xb.vertices) and np.array_equal(xa.segments, xb.segments)
+                    and (xa.normals is None or np.array_equal(xa.normals, xb.normals))):
                 return False
     return True
 
