@@ -354,10 +354,10 @@ def _flat_geometry(built: 'BuiltScene', containers: list):
         if not np.isfinite(m).all() or abs(np.linalg.det(m[:, :3])) < 1e-300:
             return None
         c = containers[int(d.in_proto[row])]
-        meshes, spheres, curves = _container_shapes(c, _container_center(c))
-        spheres = [cr for cr in spheres if cr is not None]
-        if curves:                                    # (curves stay in their prototype)
+        if c.curves:                                  # (curves stay in their prototype)
             return None
+        meshes, spheres, _ = _container_shapes(c, _container_center(c))
+        spheres = [cr for cr in spheres if cr is not None]
         scale = _similarity_scale(m[:, :3])
         if spheres and scale is None:
             return None
@@ -386,7 +386,7 @@ def _path_prototypes(built: 'BuiltScene', containers: list) -> list:
         for ci, c in enumerate(containers):
             meshes, spheres, curves = _container_shapes(c, _container_center(c))
             spheres = [cr for cr in spheres if cr is not None]
-            if spheres:
+            if spheres:                               # (with curves beside them: Embree's, as in `_prototypes`)
                 own[ci] = built.device.prototype_scene(meshes, spheres, user_shapes=True, curve_gprims=curves)
         if len(built.prototypes) > len(containers):       # the ellipsoids' unit sphere (`build`)
             own[len(containers)] = built.device.prototype_scene([], [np.array([[0.0, 0.0, 0.0, 1.0]])],

@@ -8,7 +8,8 @@ Structure of a renderer scene
 -----------------------------
 * one **prototype scene** (one BVH) per container: ``Device.prototype_scene(meshes, spheres)``;
   each mesh / sphere set is one geometry, geomIDs in list order, meshes first (then round linear
-  curves: the path integrator's cylinder lights, `light_selection.shape_geometry`).
+  curves: the path integrator's cylinder lights, `light_selection.shape_geometry`; then a geometry per
+  curves gprim, `CurveGeometry`).
 * one **top scene** of instances: ``Device.top_scene(prototypes, groups)``; each
   ``InstanceGroup`` becomes one ``RTC_GEOMETRY_TYPE_INSTANCE_ARRAY`` whose geomID is the group's
   position in ``groups``.  A hit therefore reads: ``instID`` = group, ``instPrimID`` = row of the
@@ -328,8 +329,8 @@ class Device:
                  in float64, the rows taken in float64; a segment is then the open cylinder, without the
                  capsule's round ends) instead of SPHERE_POINT and round linear curve geometries; their hits
                  report the same fields.
-        curve_gprims: [CurveGeometry] -> round Bezier or round linear curve geometries (UsdGeom.BasisCurves),
-                 geomIDs after the curves'.
+        curve_gprims: [CurveGeometry] -> round Bezier, round linear or normal-oriented Bezier curve geometries
+                 (UsdGeom.BasisCurves), geomIDs after the curves'.
         Hits report Ng in this (object) space, unnormalised: triangles cross(v1-v0, v2-v0),
         spheres p - c; u, v are the barycentric weights of v1, v2.
         """

@@ -567,3 +567,16 @@ def test_a_shots_next_frame_reuses_curves_only_when_their_bvh_would_be_the_same(
         b = copy.deepcopy(a)
         change(b.containers[0].curves[0])
         assert not same_containers(a, b)
+
+
+def test_an_emissive_curve_is_seen_and_warned_about_as_no_sampled_light():
+    """An emissive tube is no light the path integrator samples (warned once, at render time), but camera and BSDF
+    rays that meet it see its emission: side-on before a black background, an orthographic view shows radiance
+    Le over the tube's silhouette, 2 r L of it."""
+    glow = D.Material('/glow', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), emission=(3.0, 3.0, 3.0))
+    r, half, n, width = 0.3, 1.5, 48, 4.0
+    desc = scene([D.Container('/p', curves=[_tube(r, half)])], [glow], [], _ortho(width), width=n, height=n)
+    with pytest.warns(RuntimeWarning, match='1 emissive curves gprims'):
+        img = render(desc, RenderOptions(spp=64, sampler='sobol', filter='box', integrator='path')).image[..., 0]
+    assert img.max() == pytest.approx(3.0, rel=1e-6)
+    assert img.sum() * (width / n) ** 2 / 3.0 == pytest.approx(2 * r * 2 * half, rel=5e-3)
