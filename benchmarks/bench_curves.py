@@ -2,11 +2,13 @@
 renderer without native curves draws them: build time, peak memory, time a sample, and the difference of the images.
 
     python benchmarks/bench_curves.py [--curves 2000 20000] [--sides 6] [--steps 4] [--spp 16] [--rounds 3]
+    python benchmarks/bench_curves.py --scene scenes/curves.usda      # a stage of one's own instead of the patch
 
 The scene: a patch of N hair-like curves (pinned bspline of 5 points: 4 segments, tapering from width 0.02 to
 0.004, leaning at random) on a floor, lit by a RectLight and a DomeLight, read by `read_stage`.  The tessellated
 variant replaces the curves gprim by a mesh: each Bezier segment cut into `--steps` rings of `--sides` vertices
-around the curve, at the curve's radius (2 x sides x steps triangles a segment), the same material.
+around the curve, at the curve's radius (2 x sides x steps triangles a segment), the same material.  With `--scene`,
+that stage's tubes instead (its ribbons and linear curves stay as they are in both variants).
 
 Each variant renders in a process of its own (so that its peak resident memory is its own), alternating native,
 tessellated, tessellated, native, ... `--rounds` times; reported: the medians of the build's seconds (description
@@ -105,11 +107,12 @@ def child(args) -> None:
     from rtc.renderer.host.render import Renderer
     from rtc.renderer.options import RenderOptions
     from rtc.renderer.usd.stage import read_stage
-    desc = read_stage(hair_stage(args.curves[0]))
+    desc = read_stage(args.scene or hair_stage(args.curves[0]))
     if args.child == 'tess':
         for c in desc.containers:
-            c.meshes += [tube_mesh(x, args.sides, args.steps) for x in c.curves]
-            c.curves = []
+            tubes = [x for x in c.curves if not x.linear and x.normals is None]
+            c.meshes += [tube_mesh(x, args.sides, args.steps) for x in tubes]
+            c.curves = [x for x in c.curves if x.linear or x.normals is not None]
     tris = sum(len(m.triangles) for c in desc.containers for m in c.meshes)
     t = time.perf_counter()
     r = Renderer(desc)
@@ -126,6 +129,7 @@ def child(args) -> None:
 def run(kind: str, n: int, a, out: str, seed: int = 0) -> dict:
     cmd = [sys.executable, __file__, '--child', kind, '--curves', str(n), '--sides', str(a.sides), '--steps',
            str(a.steps), '--spp', str(a.spp), '--seed', str(seed), '--out', out]
+    cmd += ['--scene', a.scene] if a.scene else []
     return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.strip().splitlines()[-1])
 
 
@@ -137,6 +141,7 @@ def main() -> None:
     ap.add_argument('--spp', type=int, default=16)
     ap.add_argument('--rounds', type=int, default=3)
     ap.add_argument('--seed', type=int, default=0)
+    ap.add_argument('--scene', help='a USD stage to measure instead of the patch of curves')
     ap.add_argument('--child', choices=['native', 'tess'])
     ap.add_argument('--out')
     a = ap.parse_args()
@@ -146,7 +151,7 @@ def main() -> None:
     tmp = Path(tempfile.mkdtemp())
     print(f'{W}x{H}, path, {a.spp} spp, max depth 4; tubes of {a.sides} sides x {a.steps} steps a segment; '
           f'{a.rounds} rounds alternating, medians')
-    for n in a.curves:
+    for n in ([0] if a.scene else a.curves):
         runs = {'native': [], 'tess': []}
         for k in range(a.rounds):
             for kind in (('native', 'tess') if k % 2 == 0 else ('tess', 'native')):
@@ -156,7 +161,8 @@ def main() -> None:
         m = {k: {f: statistics.median(r[f] for r in v) for f in v[0]} for k, v in runs.items()}
         geo = np.abs(img['tess'] - img['native']).mean() / img['native'].mean()
         noise = np.abs(img['native2'] - img['native']).mean() / img['native'].mean()
-        print(f'{n} curves ({4 * n} segments; tubes: {int(m["tess"]["triangles"] - 2)} triangles)')
+        print(f'{a.scene}: tubes {int(m["tess"]["triangles"] - m["native"]["triangles"])} triangles' if a.scene else
+              f'{n} curves ({4 * n} segments; tubes: {int(m["tess"]["triangles"] - 2)} triangles)')
         for f, label in (('build_s', 'build s'), ('sample_ns', 'time a sample ns'), ('rss_mb', 'peak RSS MB')):
             print(f'  {label:18s} native {m["native"][f]:10.3f}  tessellated {m["tess"][f]:10.3f}  '
                   f'ratio {m["tess"][f] / m["native"][f]:.2f}x')
