@@ -136,7 +136,7 @@ def flattened(pv: UsdGeom.Primvar, time, warn: Warn, consequence: str):
     return values
 
 
-def _authored_normals(mesh: UsdGeom.Mesh, time, warn: Warn):
+def _authored_normals(mesh: UsdGeom.PointBased, time, warn: Warn):
     """(values, interpolation) of primvars:normals if authored, else of `normals`, else None;
     ((), None) when authored but unusable (already warned about)."""
     pv = UsdGeom.PrimvarsAPI(mesh).GetPrimvar('normals')
@@ -160,7 +160,7 @@ def varying_display_color(prim: Usd.Prim, time):
     keeps its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), curves a
     colour at each segment end (`Curves.colors`), which a
     material fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree)."""
-    if not (prim.IsA(UsdGeom.Mesh) or prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves)):
+    if implicit_type(prim) not in VARYING_COLOUR_TYPES:
         return None
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
@@ -188,10 +188,22 @@ def uv_primvar(prim: Usd.Prim):
 
 def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
     mesh = UsdGeom.Mesh(prim)
-    path = str(prim.GetPath())
-    points = np.asarray(mesh.GetPointsAttr().Get(time) or [], np.float64).reshape(-1, 3)
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(time) or [], np.int64)
     indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(time) or [], np.int64)
+    holes = np.asarray(mesh.GetHoleIndicesAttr().Get(time) or [], np.int64)
+    subdivided = mesh.GetSubdivisionSchemeAttr().Get(time) not in (UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear)
+    return polygons(prim, m, time, warn, (counts, indices, holes), subdivided)
+
+
+def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, subdivided: bool) -> list[Mesh]:
+    """Mesh records of a point-based gprim's own `points` on a polygon topology (faceVertexCounts,
+    faceVertexIndices, holeIndices), read as a Mesh is: its orientation, normals, texture coordinates,
+    displayColor varying over it, materialBind subsets.  `subdivided`: a subdivision scheme's mesh (smooth
+    normals where none are authored)."""
+    pb = UsdGeom.PointBased(prim)
+    path = str(prim.GetPath())
+    counts, indices, holes = topology
+    points = np.asarray(pb.GetPointsAttr().Get(time) or [], np.float64).reshape(-1, 3)
     if len(points) == 0 or len(counts) == 0:
         raise GeometryError(f'{path}: empty mesh')
     if counts.sum() != len(indices) or np.any(counts < 0):
@@ -202,18 +214,17 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
         raise GeometryError(f'{path}: non-finite points')
 
     face, corner = _fan(counts)
-    holes = np.asarray(mesh.GetHoleIndicesAttr().Get(time) or [], np.int64)
     if len(holes):
         keep = ~np.isin(face, holes)
         face, corner = face[keep], corner[keep]
     if len(face) == 0:
         raise GeometryError(f'{path}: no faces with 3 or more vertices')
-    left = mesh.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
+    left = pb.GetOrientationAttr().Get(time) == UsdGeom.Tokens.leftHanded
     if left:
         corner = corner[:, [0, 2, 1]]
 
     normals, dropped = None, False
-    authored = _authored_normals(mesh, time, warn)
+    authored = _authored_normals(pb, time, warn)
     if authored is not None and authored[1] is not None:
         normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
         if normals is None:
@@ -238,12 +249,11 @@ def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
             warn(f'{path}: primvars:displayColor: {len(varying[0])} values do not match interpolation '
                  f'"{varying[1]}"; their mean colour used')
             colors = np.broadcast_to(varying[0].mean(0), (len(face), 3, 3)).copy()
-    smooth = normals is None and (dropped or mesh.GetSubdivisionSchemeAttr().Get(time) not in (
-        UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear))
+    smooth = normals is None and (dropped or subdivided)
     whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim), colors)
 
     # split by materialBind subsets: one record per subset (+ the faces in none of them)
-    subsets = UsdGeom.Subset.GetGeomSubsets(mesh, UsdGeom.Tokens.face, MATERIAL_BIND_FAMILY)
+    subsets = UsdGeom.Subset.GetGeomSubsets(pb, UsdGeom.Tokens.face, MATERIAL_BIND_FAMILY)
     if not subsets:
         return [whole]
     owner = np.full(len(face), -1)
@@ -387,11 +397,16 @@ def _merge(*parts):
     return np.concatenate(pts), np.concatenate(tris), np.concatenate(nrm), np.concatenate(uv)
 
 
-def _quadric(prim, m, parts, axis: str, double_sided: bool) -> list[Mesh]:
+def _quadric(prim, m, parts, axis: str, double_sided: bool, colour=None) -> list[Mesh]:
+    """One Mesh record of a quadric's parts; `colour(pts, tris)`, where given, returns its triangles again and their
+    corners' colours."""
     pts, tris, nrm, uv = _merge(*parts)
     rot = _axis_frame(axis)
     pts, nrm = pts @ rot.T, nrm @ rot.T
-    return [_finish(str(prim.GetPath()), pts, tris, nrm[tris], uv[tris], m, False, double_sided)]
+    colors = None
+    if colour is not None:
+        tris, colors = colour(pts, tris)
+    return [_finish(str(prim.GetPath()), pts, tris, nrm[tris], uv[tris], m, False, double_sided, colors)]
 
 
 def _frustum(rb: float, rt: float, h: float):
@@ -455,8 +470,39 @@ def _cube(prim, m, time, warn):
             for (su, sv), t in zip(((-1, -1), (1, -1), (1, 1), (-1, 1)), ((0, 0), (1, 0), (1, 1), (0, 1))):
                 pts.append(half * (n + su * u + sv * v)); nrm.append(n); uv.append(t)
             tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
+    varying = varying_display_color(prim, time)
     return _quadric(prim, m, [(np.array(pts), np.array(tris), np.array(nrm), np.array(uv, float))],
-                    'Z', _double_sided(prim))
+                    'Z', _double_sided(prim), None if varying is None else lambda p, t: _cube_colours(
+                        p, varying, str(prim.GetPath()), warn))
+
+
+# Hydra's cube (GeomUtilCuboidMeshGenerator): its 8 corners' signs and its 6 quads, the order in which a Cube's
+# uniform, vertex and faceVarying primvars are given
+HYDRA_CUBE_CORNERS = np.array([(1, 1, 1), (-1, 1, 1), (-1, -1, 1), (1, -1, 1),
+                               (-1, -1, -1), (-1, 1, -1), (1, 1, -1), (1, -1, -1)])
+HYDRA_CUBE_QUADS = np.array([(0, 1, 2, 3), (4, 5, 6, 7), (0, 6, 5, 1), (4, 7, 3, 2), (0, 3, 7, 6), (4, 2, 1, 5)])
+
+
+def _cube_colours(pts: np.ndarray, varying: tuple, path: str, warn: Warn):
+    """A cube's triangles over its 24 points (4 a face, in faces' order) split as Storm splits Hydra's quads,
+    (0, 1, 2) and (0, 2, 3), and the displayColor at their corners, read in the order of Hydra's cube."""
+    corner = np.argmax(np.all(np.sign(pts)[:, None, :] == HYDRA_CUBE_CORNERS[None], axis=2), axis=1)
+    centre = pts.reshape(6, 4, 3).mean(axis=1)            # (the points come 4 a face)
+    tris, face, fv = [], [], []
+    for f, quad in enumerate(HYDRA_CUBE_QUADS):
+        axis = int(np.flatnonzero(np.all(HYDRA_CUBE_CORNERS[quad] == HYDRA_CUBE_CORNERS[quad[0]], axis=0))[0])
+        on_face = np.flatnonzero(np.repeat(np.sign(centre[:, axis]) == HYDRA_CUBE_CORNERS[quad[0], axis], 4))
+        ours = [int(on_face[np.flatnonzero(corner[on_face] == v)[0]]) for v in quad]
+        tris += [(ours[0], ours[1], ours[2]), (ours[0], ours[2], ours[3])]
+        face += [f, f]
+        fv += [(4 * f, 4 * f + 1, 4 * f + 2), (4 * f, 4 * f + 2, 4 * f + 3)]
+    tris, face, fv = np.array(tris), np.array(face), np.array(fv)
+    colors = _per_corner(varying[0], varying[1], face, fv, HYDRA_CUBE_QUADS.reshape(-1), 8, 6)
+    if colors is None:
+        warn(f'{path}: primvars:displayColor: {len(varying[0])} values do not match interpolation '
+             f'"{varying[1]}" on a cube (6 faces, 8 points, 24 face corners); their mean colour used')
+        colors = np.broadcast_to(varying[0].mean(0), (len(tris), 3, 3)).copy()
+    return tris, colors
 
 
 def _plane(prim, m, time, warn):
@@ -515,6 +561,16 @@ def _points(prim, m, time, warn):
                    centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]), colors=colors)]
 
 
+def _tet_mesh(prim, m, time, warn):
+    from .mesh_adapters import tet_mesh             # (TetMesh and NurbsPatch are read through `polygons`)
+    return tet_mesh(prim, m, time, warn, polygons, GeometryError)
+
+
+def _nurbs_patch(prim, m, time, warn):
+    from .mesh_adapters import nurbs_patch
+    return nurbs_patch(prim, m, time, warn, polygons, GeometryError)
+
+
 def _basis_curves(prim, m, time, warn):
     from .curves import basis_curves                 # (curves.py is the BasisCurves reader; it reads no module here)
     return basis_curves(prim, m, time, warn, GeometryError, varying_display_color)
@@ -530,4 +586,8 @@ _CONVERTERS = {
     'Mesh': _mesh, 'Sphere': _sphere, 'Cube': _cube, 'Cylinder': _cylinder,
     'Cylinder_1': _cylinder, 'Cone': _cone, 'Capsule': _capsule, 'Capsule_1': _capsule,
     'Plane': _plane, 'Points': _points, 'BasisCurves': _basis_curves, 'NurbsCurves': _nurbs_curves,
+    'TetMesh': _tet_mesh, 'NurbsPatch': _nurbs_patch,
 }
+# gprims whose records keep a displayColor that varies over them (as read: a course sphere written as a Mesh is a
+# Sphere, which keeps one colour)
+VARYING_COLOUR_TYPES = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch', 'Cube')

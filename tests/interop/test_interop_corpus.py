@@ -24,7 +24,7 @@ from tests.interop.interop_helpers import RTC, USD_CORPUS, corpus_files
 
 W, H, SPP = 48, 36, 4
 SURFACES = {'Mesh', 'Sphere', 'Cube', 'Cylinder', 'Cylinder_1', 'Cone', 'Capsule', 'Capsule_1', 'Plane', 'Points',
-            'BasisCurves', 'NurbsCurves'}
+            'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch'}
 
 #: Files with surface gprims that must still render nothing, and why.
 EMPTY_BY_DESIGN = {
@@ -79,7 +79,7 @@ def surface_census(path) -> tuple[int, set[str]]:
         types.add(str(kind))
         if kind == 'Mesh':
             has_data = bool(UsdGeom.Mesh(prim).GetFaceVertexCountsAttr().Get(t))
-        elif kind in ('Points', 'BasisCurves', 'NurbsCurves'):
+        elif kind in ('Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch'):
             has_data = bool(UsdGeom.PointBased(prim).GetPointsAttr().Get(t))
         else:
             has_data = True

@@ -82,7 +82,8 @@ def test_uniform_and_face_varying_colours_per_corner():
 def test_constant_bound_mismatched_and_other_gprims():
     """A constant colour is the material's own (no per-corner colours); a bound material is not shaded by
     displayColor (Storm neither, without a primvar reader); a colour count that fits no interpolation is warned
-    and its mean used; a Cube with per-face colours keeps one colour, their mean."""
+    and its mean used; a Cylinder with per-face colours keeps one colour, their mean (a Cube's are kept per face:
+    `test_mesh_adapters.py`)."""
     st = _stage()
     _mesh(st, '/Const', 'constant', [(0.3, 0.2, 0.1)])
     _mesh(st, '/Same', 'vertex', [(0.5, 0.5, 0.5)] * 5)               # varies in name only
@@ -94,8 +95,8 @@ def test_constant_bound_mismatched_and_other_gprims():
     mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
     UsdShade.MaterialBindingAPI.Apply(bound.GetPrim()).Bind(mat)
     _mesh(st, '/Odd', 'vertex', COLOURS[:3])                           # 3 colours, 5 points
-    cube = UsdGeom.Cube.Define(st, '/Cube')
-    cube.CreateDisplayColorPrimvar('uniform').Set([(1, 0, 0), (0, 1, 0)] * 3)
+    cylinder = UsdGeom.Cylinder.Define(st, '/Cylinder')
+    cylinder.CreateDisplayColorPrimvar('uniform').Set([(1, 0, 0), (0, 1, 0)] * 3)
     desc, meshes = _read(st)
     material = lambda path: desc.materials[meshes[path].material]
     assert meshes['/Const'].colors is None and material('/Const').diffuse == pytest.approx((0.3, 0.2, 0.1))
@@ -104,7 +105,7 @@ def test_constant_bound_mismatched_and_other_gprims():
     assert material('/Odd').vertex_colors
     np.testing.assert_allclose(meshes['/Odd'].colors, np.full((3, 3, 3), 1 / 3), rtol=1e-6)
     assert any('/Odd: primvars:displayColor: 3 values do not match interpolation "vertex"' in w for w in desc.warnings)
-    assert meshes['/Cube'].colors is None and material('/Cube').diffuse == pytest.approx((0.5, 0.5, 0.0))
+    assert meshes['/Cylinder'].colors is None and material('/Cylinder').diffuse == pytest.approx((0.5, 0.5, 0.0))
 
 
 def test_a_hit_gets_its_corners_colours_interpolated():
