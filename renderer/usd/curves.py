@@ -102,7 +102,7 @@ def _per_vertex(values, interpolation: str, counts: np.ndarray, ends: int, what:
     return None, None
 
 
-def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) -> list[Curves]:
+def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
     """The `Curves` record of one BasisCurves prim (gprim-to-container matrix m).  `error`: the exception
     class to raise where the gprim cannot be used; `display_color(prim, time)`: (values, interpolation) of a
     displayColor that varies over it, or None (`geometry.varying_display_color`)."""
@@ -113,25 +113,26 @@ def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) ->
     if kind not in ('linear', 'cubic') or wrap not in ('nonperiodic', 'periodic', 'pinned') or \
             (kind == 'cubic' and basis not in TO_BEZIER):
         raise error(f'{prim.GetPath()}: curves of type {kind!r}, basis {basis!r}, wrap {wrap!r} are not drawn')
-    return _curves(curves, (kind, basis, wrap), m, time, warn, error, display_color)
+    return _curves(curves, (kind, basis, wrap), m, time, warn, error, display_color, posed)
 
 
-def nurbs_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color) -> list[Curves]:
+def nurbs_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
     """The `Curves` record of one NurbsCurves prim: its control cage, linear segments through its control points,
     with its widths and colours, as usdImaging draws NurbsCurves (`UsdImagingNurbsCurvesAdapter`: a linear,
     nonperiodic BasisCurves topology of the same points; knots, order, weights and ranges unused), warned."""
     warn(f'{prim.GetPath()}: NurbsCurves drawn as their control cage (linear segments through the control points), '
          'as usdImaging draws them')
     cage = ('linear', 'bezier', 'nonperiodic')
-    return _curves(UsdGeom.NurbsCurves(prim), cage, m, time, warn, error, display_color)
+    return _curves(UsdGeom.NurbsCurves(prim), cage, m, time, warn, error, display_color, posed)
 
 
-def _curves(curves, shape, m, time, warn: Warn, error, display_color) -> list[Curves]:
-    """The record of a UsdGeom.Curves prim read as curves of `shape` = (type, basis, wrap)."""
+def _curves(curves, shape, m, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
+    """The record of a UsdGeom.Curves prim read as curves of `shape` = (type, basis, wrap); `posed`: its points
+    posed by a skeleton (`skinning.py`) in place of its own."""
     kind, basis, wrap = shape
     path = str(curves.GetPath())
     linear = kind == 'linear'
-    p = curves.GetPointsAttr().Get(time)
+    p = curves.GetPointsAttr().Get(time) if posed is None else posed
     p = np.zeros((0, 3)) if p is None else np.asarray(p, np.float64).reshape(-1, 3)
     counts = np.asarray(curves.GetCurveVertexCountsAttr().Get(time) or [], np.int64)
     if int(counts.sum()) != len(p) or np.any(counts < 0):

@@ -46,13 +46,16 @@ def converter_for(type_name: str):
     return _CONVERTERS.get(type_name)
 
 
-def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn: Warn) -> list:
-    """Mesh/Sphere records for one gprim.  Raises GeometryError (or KeyError for an unknown
+def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn: Warn, posed=None) -> list:
+    """Mesh/Sphere/Curves records for one gprim; `posed`: the points of a point-based gprim posed by its skeleton
+    (`skinning.posed_points`), read in place of its own.  Raises GeometryError (or KeyError for an unknown
     type, which callers prevent by asking `converter_for` first)."""
     if not np.all(np.isfinite(to_container)):
         raise GeometryError(f'{prim.GetPath()}: non-finite transform')
     if abs(np.linalg.det(to_container[:3, :3])) < 1e-300:
         raise GeometryError(f'{prim.GetPath()}: singular transform')
+    if posed is not None and implicit_type(prim) in _POSABLE:
+        return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn, posed)
     return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn)
 
 
@@ -186,24 +189,26 @@ def uv_primvar(prim: Usd.Prim):
     return None
 
 
-def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn) -> list[Mesh]:
+def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, posed=None) -> list[Mesh]:
     mesh = UsdGeom.Mesh(prim)
     counts = np.asarray(mesh.GetFaceVertexCountsAttr().Get(time) or [], np.int64)
     indices = np.asarray(mesh.GetFaceVertexIndicesAttr().Get(time) or [], np.int64)
     holes = np.asarray(mesh.GetHoleIndicesAttr().Get(time) or [], np.int64)
     subdivided = mesh.GetSubdivisionSchemeAttr().Get(time) not in (UsdGeom.Tokens.none, UsdGeom.Tokens.bilinear)
-    return polygons(prim, m, time, warn, (counts, indices, holes), subdivided)
+    return polygons(prim, m, time, warn, (counts, indices, holes), subdivided, posed)
 
 
-def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, subdivided: bool) -> list[Mesh]:
+def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, subdivided: bool,
+             posed=None) -> list[Mesh]:
     """Mesh records of a point-based gprim's own `points` on a polygon topology (faceVertexCounts,
     faceVertexIndices, holeIndices), read as a Mesh is: its orientation, normals, texture coordinates,
     displayColor varying over it, materialBind subsets.  `subdivided`: a subdivision scheme's mesh (smooth
-    normals where none are authored)."""
+    normals where none are authored).  `posed`: its points posed by a skeleton, in place of its own; its authored
+    normals are then not used (Storm computes a skinned mesh's normals from its posed points too)."""
     pb = UsdGeom.PointBased(prim)
     path = str(prim.GetPath())
     counts, indices, holes = topology
-    points = np.asarray(pb.GetPointsAttr().Get(time) or [], np.float64).reshape(-1, 3)
+    points = np.asarray(pb.GetPointsAttr().Get(time) or [] if posed is None else posed, np.float64).reshape(-1, 3)
     if len(points) == 0 or len(counts) == 0:
         raise GeometryError(f'{path}: empty mesh')
     if counts.sum() != len(indices) or np.any(counts < 0):
@@ -224,7 +229,7 @@ def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, s
         corner = corner[:, [0, 2, 1]]
 
     normals, dropped = None, False
-    authored = _authored_normals(pb, time, warn)
+    authored = None if posed is not None else _authored_normals(pb, time, warn)
     if authored is not None and authored[1] is not None:
         normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
         if normals is None:
@@ -526,13 +531,13 @@ def _sphere(prim, m, time, warn):
     return [Sphere(path=str(prim.GetPath()), radius=r, matrix=np.array(m, np.float64))]
 
 
-def _points(prim, m, time, warn):
+def _points(prim, m, time, warn, posed=None):
     """UsdGeom.Points: a cloud of spheres, one a point, of diameter its width (`widths`, constant or one a
     point; unauthored: 1, as Hydra draws them), in gprim space; points that are not finite, or whose width is
     not positive, are left out (warned)."""
     pts = UsdGeom.Points(prim)
     path = str(prim.GetPath())
-    p = pts.GetPointsAttr().Get(time)
+    p = pts.GetPointsAttr().Get(time) if posed is None else posed
     p = np.zeros((0, 3)) if p is None else np.asarray(p, np.float64).reshape(-1, 3)
     w = pts.GetWidthsAttr().Get(time)
     w = np.ones(1) if w is None or len(w) == 0 else np.asarray(w, np.float64).reshape(-1)
@@ -561,24 +566,24 @@ def _points(prim, m, time, warn):
                    centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]), colors=colors)]
 
 
-def _tet_mesh(prim, m, time, warn):
+def _tet_mesh(prim, m, time, warn, posed=None):
     from .mesh_adapters import tet_mesh             # (TetMesh and NurbsPatch are read through `polygons`)
-    return tet_mesh(prim, m, time, warn, polygons, GeometryError)
+    return tet_mesh(prim, m, time, warn, polygons, GeometryError, posed)
 
 
-def _nurbs_patch(prim, m, time, warn):
+def _nurbs_patch(prim, m, time, warn, posed=None):
     from .mesh_adapters import nurbs_patch
-    return nurbs_patch(prim, m, time, warn, polygons, GeometryError)
+    return nurbs_patch(prim, m, time, warn, polygons, GeometryError, posed)
 
 
-def _basis_curves(prim, m, time, warn):
+def _basis_curves(prim, m, time, warn, posed=None):
     from .curves import basis_curves                 # (curves.py is the BasisCurves reader; it reads no module here)
-    return basis_curves(prim, m, time, warn, GeometryError, varying_display_color)
+    return basis_curves(prim, m, time, warn, GeometryError, varying_display_color, posed)
 
 
-def _nurbs_curves(prim, m, time, warn):
+def _nurbs_curves(prim, m, time, warn, posed=None):
     from .curves import nurbs_curves
-    return nurbs_curves(prim, m, time, warn, GeometryError, varying_display_color)
+    return nurbs_curves(prim, m, time, warn, GeometryError, varying_display_color, posed)
 
 
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
@@ -588,6 +593,8 @@ _CONVERTERS = {
     'Plane': _plane, 'Points': _points, 'BasisCurves': _basis_curves, 'NurbsCurves': _nurbs_curves,
     'TetMesh': _tet_mesh, 'NurbsPatch': _nurbs_patch,
 }
+# point-based gprims whose converters read points posed by a skeleton in place of their own
+_POSABLE = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch')
 # gprims whose records keep a displayColor that varies over them (as read: a course sphere written as a Mesh is a
 # Sphere, which keeps one colour)
 VARYING_COLOUR_TYPES = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch', 'Cube')

@@ -66,16 +66,17 @@ class GeometryCache:
             self.boxes.clear()
             self.stage = stage
 
-    def convert(self, prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn) -> list:
-        """`convert_gprim(prim, to_container, time, warn)`, from the cache when `prim` is static
-        and was converted with the same matrix last time."""
+    def convert(self, prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn, posed=None) -> list:
+        """`convert_gprim(prim, to_container, time, warn, posed)`, from the cache when `prim` is static, not posed
+        by a skeleton (whose animation the prim's attributes do not show), and was converted with the same matrix
+        last time."""
         path = str(prim.GetPath())
         static = self.static.get(path)
         if static is None:
             static = self.static[path] = is_static(prim)
-        if not static:
+        if not static or posed is not None:
             self.varying += 1
-            return convert_gprim(prim, to_container, time, warn)
+            return convert_gprim(prim, to_container, time, warn, posed)
         matrix = np.ascontiguousarray(to_container, np.float64).tobytes()
         kept = self.kept.get(path)
         if kept is not None and kept.matrix == matrix:

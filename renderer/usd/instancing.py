@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 from typing import Callable, Optional
 
 import numpy as np
-from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, Vt
+from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt
 
 from ..errors import SceneError
 from .geometry import converter_for
@@ -72,6 +72,8 @@ def _kind(prim: Usd.Prim, cache: dict) -> str:
             cache[name] = 'light'
         elif prim.IsA(UsdGeom.Gprim):
             cache[name] = 'unsupported'
+        elif prim.IsA(UsdSkel.Root):
+            cache[name] = 'skelroot'
         elif prim.IsA(UsdGeom.Camera):
             cache[name] = 'camera'
         elif prim.IsA(UsdRender.Settings):
@@ -137,6 +139,7 @@ class InstanceGraph:
         self.nodes: list[Node] = []
         self.index: dict[str, int] = {}
         self.skipped: list[str] = []
+        self.skel_roots: list[Usd.Prim] = []    # SkelRoots met (on the stage or in prototypes): skinning.py poses
         self.cameras: list[Usd.Prim] = []
         self.settings: list[Usd.Prim] = []
         self.animated = any(layer.ListAllTimeSamples() for layer in stage.GetUsedLayers())
@@ -193,14 +196,13 @@ class InstanceGraph:
         return found
 
     def _walk(self, node: Node, include_root: bool) -> None:
-        """Visit the container's prims in `Usd.PrimRange(root, predicate)` order (depth first,
-        pruned at instances, PointInstancers and invisible prims) with as few pxr calls per prim
-        as usd-core allows: the children of a prim come in one batch (`GetFilteredChildren`,
-        their names and the names of those that are instances: three calls per parent, none per
-        child), paths are strings built from the names, and a prim costs one
-        `GetAuthoredPropertyNames` and one `GetTypeName`; an instance's prototype comes from a
-        table built with `GetPrototypes`/`GetInstances` (one dict lookup).  No per-prim state
-        dict, no `Sdf.Path` objects."""
+        """Visit the container's prims in `Usd.PrimRange(root, predicate)` order (depth first, pruned at instances,
+        PointInstancers and invisible prims) with as few pxr calls per prim as usd-core allows: the children of a
+        prim come in one batch (`GetFilteredChildren`, their names and the names of those that are instances: three
+        calls per parent, none per child), paths are strings built from the names, and a prim costs one
+        `GetAuthoredPropertyNames` and one `GetTypeName`; an instance's prototype comes from a table built with
+        `GetPrototypes`/`GetInstances` (one dict lookup).  No per-prim state dict, no `Sdf.Path` objects.
+        SkelRoots met, instances or not, are listed for `skinning.py`."""
         t, root, is_root = self.time, node.root, node.key == '/'
         pred = PI_PROTOTYPE_PREDICATE if include_root else Usd.PrimDefaultPredicate
         if not pred(root):                       # what Usd.PrimRange(root, pred) yields: nothing
@@ -246,6 +248,8 @@ class InstanceGraph:
                     if animated and 'xformOp' in joined:
                         self.xform_prims.append(prim)
                 kind = kinds.get(prim.GetTypeName()) or _kind(prim, kinds)
+                if kind == 'skelroot':
+                    self.skel_roots.append(prim)
                 if name in instances:
                     if kind == 'gprim' and p not in (2, 3):
                         gprims.append((prim, p))

@@ -24,7 +24,7 @@ from pxr import UsdGeom
 Warn = Callable[[str], None]
 
 
-def tet_mesh(prim, m: np.ndarray, time, warn: Warn, polygons, error) -> list:
+def tet_mesh(prim, m: np.ndarray, time, warn: Warn, polygons, error, posed=None) -> list:
     """Mesh records of a TetMesh's surface faces (authored, or computed from its tetrahedra, warned)."""
     tet = UsdGeom.TetMesh(prim)
     path = str(prim.GetPath())
@@ -44,10 +44,10 @@ def tet_mesh(prim, m: np.ndarray, time, warn: Warn, polygons, error) -> list:
         if len(faces) == 0:
             raise error(f'{path}: its tetrahedra have no surface face')
     counts = np.full(len(faces), 3, np.int64)
-    return polygons(prim, m, time, warn, (counts, faces.reshape(-1), np.zeros(0, np.int64)), True)
+    return polygons(prim, m, time, warn, (counts, faces.reshape(-1), np.zeros(0, np.int64)), True, posed)
 
 
-def nurbs_patch(prim, m: np.ndarray, time, warn: Warn, polygons, error) -> list:
+def nurbs_patch(prim, m: np.ndarray, time, warn: Warn, polygons, error, posed=None) -> list:
     """Mesh records of a NurbsPatch's control hull (warned: its surface is not evaluated)."""
     patch = UsdGeom.NurbsPatch(prim)
     path = str(prim.GetPath())
@@ -62,4 +62,4 @@ def nurbs_patch(prim, m: np.ndarray, time, warn: Warn, polygons, error) -> list:
     idx = (np.arange(nv - 1)[:, None] * nu + np.arange(nu - 1)[None, :]).reshape(-1)
     quads = np.stack([idx, idx + 1, idx + nu + 1, idx + nu], axis=1)
     counts = np.full(len(quads), 4, np.int64)
-    return polygons(prim, m, time, warn, (counts, quads.reshape(-1), np.zeros(0, np.int64)), True)
+    return polygons(prim, m, time, warn, (counts, quads.reshape(-1), np.zeros(0, np.int64)), True, posed)

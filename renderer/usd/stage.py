@@ -120,6 +120,7 @@ class _Reader:
         self.materials = MaterialTable(self.tc, self.warn)
         self.backgrounds: set[str] = set()     # DomeLights marked rtc:background (course background colour)
         self.mesh_lights = 0                   # gprims (per binding resolution) with UsdLux MeshLightAPI
+        self.posed: dict = {}                  # gprim path -> its points posed by a skeleton (skinning.py)
 
     def warn(self, message: str) -> None:
         self.warnings.append(message)
@@ -133,6 +134,9 @@ class _Reader:
         graph = InstanceGraph(stage, self.tc, self.warn)
         graph.build()
         self.skipped += graph.skipped
+        if graph.skel_roots:
+            from .skinning import posed_points
+            self.posed = posed_points(graph.skel_roots, self.tc, self.warn)
 
         settings_prim = render_settings_prim(stage, graph.settings)
         settings, background, policy = read_render_settings(settings_prim, self.tc)
@@ -199,7 +203,7 @@ class _Reader:
         node, shapes = graph.nodes[n], []
         for (prim, purpose), rel in zip(node.gprims, node.gprim_xf):
             try:
-                records = self.convert(prim, rel[0], self.tc, self.warn)
+                records = self.convert(prim, rel[0], self.tc, self.warn, self.posed.get(str(prim.GetPath())))
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue
