@@ -32,6 +32,7 @@ from .geometry import flattened, varying_display_color
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
+PREVIEW_ROUGHNESS = 0.5              # UsdPreviewSurface roughness where unauthored (the spec; Material.roughness is 0)
 _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
 _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture',
                    'emissiveColor': 'emission_texture'}
@@ -160,7 +161,9 @@ class MaterialTable:
         return m
 
     def _preview_surface(self, path: str, shader: UsdShade.Shader) -> Material:
-        m = Material(path=path, model=PREVIEW_SURFACE)
+        """A UsdPreviewSurface's inputs; an unauthored one keeps the spec's default (its Sdr definition,
+        `usdShaders/shaderDefs.usda`: roughness 0.5, diffuseColor 0.18, ior 1.5, clearcoatRoughness 0.01, ...)."""
+        m = Material(path=path, model=PREVIEW_SURFACE, roughness=PREVIEW_ROUGHNESS)
         for name, field, kind in (
                 ('diffuseColor', 'diffuse', 'colour'), ('specularColor', 'specular', 'colour'),
                 ('emissiveColor', 'emission', 'colour'), ('roughness', 'roughness', float),

@@ -889,3 +889,29 @@ def test_negative_dome_texels_are_read_as_zero_with_a_warning(tmp_path):
     for s, img in est.items():
         assert img.min() >= 0.0, s
         assert img.mean() == pytest.approx(est['mis'].mean(), rel=0.01), s
+
+
+def test_unauthored_preview_surface_inputs_take_the_specs_defaults():
+    """A UsdPreviewSurface with no input authored reads as the spec defines it: every default the reader keeps
+    against the shader's own definition in Sdr (usd-core's `usdShaders`: roughness 0.5, not 0)."""
+    from pxr import Sdr
+    st = Usd.Stage.CreateInMemory()
+    mesh = UsdGeom.Mesh.Define(st, '/M')
+    mesh.CreatePointsAttr([(0, 0, 0), (1, 0, 0), (0, 1, 0)])
+    mesh.CreateFaceVertexCountsAttr([3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2])
+    mat = UsdShade.Material.Define(st, '/Mat')
+    sh = UsdShade.Shader.Define(st, '/Mat/S')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)
+    desc = read_stage(st)
+    m = desc.materials[desc.containers[0].meshes[0].material]
+    spec = Sdr.Registry().GetShaderNodeByIdentifier('UsdPreviewSurface')
+    default = lambda name: spec.GetShaderInput(name).GetDefaultValue()
+    for name, value in (('diffuseColor', m.diffuse), ('specularColor', m.specular), ('emissiveColor', m.emission)):
+        assert value == pytest.approx(tuple(default(name)), abs=1e-7), name
+    for name, value in (('roughness', m.roughness), ('metallic', m.metallic), ('ior', m.ior), ('opacity', m.opacity),
+                        ('clearcoat', m.clearcoat), ('clearcoatRoughness', m.clearcoat_roughness),
+                        ('useSpecularWorkflow', m.use_specular_workflow)):
+        assert value == pytest.approx(float(default(name)), abs=1e-7), name
