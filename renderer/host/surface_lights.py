@@ -46,8 +46,17 @@ sample draws (the triangle and barycentrics on a mesh, its st primvar interpolat
 in its own frame) as `kernel/shapes.surface` does at a ray's hit, so both strategies see one emission.
 The light tree's phi uses the texture's mean absolute value (`texture_mean`).
 
+A cubic curves gprim (UsdGeom.BasisCurves drawn as Embree's round curves) is a light a segment at each
+placement, a placement's segments consecutive lights (a hit's light: its gprim slot's first plus its primitive,
+as a cloud's balls): its world control points and radii (CTRL), sampled uniformly in u and in angle around the
+tube's circle, the density per unit area 1 / (2 pi J) at the point, J the tube's area element there
+(`kernel/curves.tube_point`), for light samples and hits alike.  Its tree bounds: the control points' box grown by
+its largest radius, phi its largest projected area (about A / pi) times its luminance.  Only placements by a
+similarity (the world tube is the tube of the world curve) that do not move, and untextured emission.
+
 Not lights (their emission is still added where a ray hits them, with weight 1): materials whose
-emission has no luminance.
+emission has no luminance; emissive linear curves and ribbons, curves placed by a non-uniform scale or moving, or
+of a textured emission (warned).
 """
 from __future__ import annotations
 
@@ -56,13 +65,14 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_CURVES, GP_MESH, GP_SPHERE, MF_EMIT, MF_OPACITY, MI_EMISSION_TEX, MI_MODEL,
-                             SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
-                             TI_WIDTH)
+from ..kernel.tables import (GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT, MF_OPACITY,
+                             MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE,
+                             TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000
 MAX_BALLS = 100_000
+MAX_SEGMENTS = 100_000
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 SurfaceLights = namedtuple('SurfaceLights', ['sl_f', 'sl_i', 'sl_tri', 'sl_cdf', 'sl_row', 'sl_idx', 'bounds'])
 
@@ -82,6 +92,11 @@ def _row_counts(data, mask: np.ndarray, table: np.ndarray) -> np.ndarray:
 def _triangle_counts(data) -> np.ndarray:
     """Triangles of each gprim (0 for a sphere)."""
     return _row_counts(data, data.gp_kind == GP_MESH, data.tri_v)
+
+
+def _segment_counts(data) -> np.ndarray:
+    """Segments of each curves gprim (0 for the others)."""
+    return _row_counts(data, data.gp_kind == GP_CURVES, data.crv)
 
 
 def _ball_counts(data) -> np.ndarray:
@@ -160,8 +175,10 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
     groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | placed balls, emission)
+    tubes = []                          # (rows, slot, world control points (R, n, 4, 4), emission)
     means = {}
     n_balls = _ball_counts(data)
+    n_segments = _segment_counts(data)
     glowing_curves = 0
     for c in range(len(data.pr_gp_start)):
         rows = np.flatnonzero(data.in_proto[:n_rows] == c)
@@ -169,9 +186,12 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
             continue
         own = not np.any(data.in_matset[rows] >= 0)       # every placement uses the gprims' own materials
         for g in range(int(data.pr_gp_start[c]), int(ends[c])):
-            if data.gp_kind[g] == GP_CURVES:              # seen by the rays that meet them, not light-sampled
-                glowing_curves += bool((not own or glowing[data.gp_material[g]])
-                                       and _emitting(data, rows, g - int(data.pr_gp_start[c]), g, means)[1].any())
+            if data.gp_kind[g] == GP_CURVES:
+                if (not own or glowing[data.gp_material[g]]) and n_segments[g]:
+                    placed, others = _curve_lights(data, rows, g - int(data.pr_gp_start[c]), g, means, static,
+                                                   int(n_segments[g]))
+                    tubes += placed
+                    glowing_curves += others
                 continue
             sphere = data.gp_kind[g] == GP_SPHERE
             if (own and not glowing[data.gp_material[g]]) or (n_balls[g] if sphere else counts[g]) == 0:
@@ -204,10 +224,58 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
         warn(f'{n_balls} emissive spheres (placements of emissive spheres and the points of emissive point clouds) '
              f'are lights of the path integrator: more than {MAX_BALLS}, they cost memory (~350 bytes each) and '
              'build time')
+    n_tubes = sum(t[2].shape[0] * t[2].shape[1] for t in tubes)
+    if n_tubes > MAX_SEGMENTS and warn is not None:
+        warn(f'{n_tubes} emissive curve segments (placements of emissive curves) are lights of the path integrator: '
+             f'more than {MAX_SEGMENTS}, they cost memory (~500 bytes each) and build time')
     if glowing_curves and warn is not None:
-        warn(f'{glowing_curves} emissive curves gprims: the rays that meet them see their emission, but they are '
-             'not lights the path integrator samples (their light is noisier than an emissive mesh\'s)')
-    return _tables(data, groups, balls, first, movers)
+        warn(f'{glowing_curves} emissive curves gprims (linear curves, ribbons, textured emission, or moving or '
+             'non-uniformly scaled placements): the rays that meet them see their emission, but they are not lights '
+             'the path integrator samples (their light is noisier than an emissive mesh\'s)')
+    return _tables(data, groups, balls, first, movers, tubes)
+
+
+def _curve_lights(data, rows: np.ndarray, slot: int, g: int, means: dict, static: np.ndarray, n: int):
+    """([(rows, slot, world control points (R, n, 4, 4), emission)] of the placements of curves gprim g (n segments)
+    whose segments are lights, 1 if some other placement emits but is no light else 0).  Lights: cubic round tubes
+    (not linear curves, not ribbons) of an untextured emission, placed still by a similarity (a uniform scale: the
+    world tube is then the tube of the world curve and radius, which `kernel/surface_lights` samples)."""
+    emit, ok = _emitting(data, rows, slot, g, means)
+    m = data.in_xf[rows, 0]
+    scale = _similarity(m)
+    tube = not data.gp_flags[g] & (GP_LINEAR | GP_RIBBON)
+    lit = ok & static[rows] & (scale > 0.0) & (emit[:, 3] < 0) & tube
+    off = int(data.gp_off[g])
+    ctrl = np.asarray(data.crv[off:off + n], np.float64)
+    placed = []
+    if lit.any():
+        world = np.empty((int(lit.sum()), n, 4, 4))
+        world[..., :3] = np.einsum('rij,nvj->rnvi', m[lit][:, :, :3], ctrl[..., :3]) + m[lit][:, None, None, :, 3]
+        world[..., 3] = ctrl[None, ..., 3] * scale[lit][:, None, None]
+        placed.append((rows[lit], slot, world, emit[lit]))
+    return placed, int((ok & ~lit).any())
+
+
+def tube_areas(q: np.ndarray, nodes: int = 8, angles: int = 16) -> np.ndarray:
+    """Areas of the tubes of circles (`kernel/curves.tube_point`) of Bezier segments q (k, 4, 4: x, y, z, radius),
+    integrated over the segment by Gauss-Legendre in u and over the circle at `angles` equal steps (exact for the
+    circle's smooth periodic integrand to rounding at these sizes): the light tree's phi, not a density."""
+    x, wx = np.polynomial.legendre.leggauss(nodes)
+    u, wu = 0.5 * (x + 1.0), 0.5 * wx
+    s = 1.0 - u
+    b = np.stack([s ** 3, 3 * s * s * u, 3 * s * u * u, u ** 3], 1)
+    db = np.stack([-3 * s * s, 3 * s * s - 6 * s * u, 6 * s * u - 3 * u * u, 3 * u * u], 1)
+    ddb = np.stack([6 * s, 6 * u - 12 * s, 6 * s - 12 * u, 6 * u], 1)
+    e, d, dd = (np.einsum('ui,kic->kuc', w, q) for w in (b, db, ddb))       # (k, nodes, 4)
+    speed = np.linalg.norm(d[..., :3], axis=2)
+    safe = np.where(speed > 0.0, speed, 1.0)
+    t = d[..., :3] / safe[..., None]
+    bend = np.linalg.norm(dd[..., :3] - np.sum(dd[..., :3] * t, 2)[..., None] * t, axis=2) / safe
+    cos = np.cos(2.0 * np.pi * np.arange(angles) / angles)
+    a = speed[..., None] - (e[..., 3] * bend)[..., None] * cos                # (k, nodes, angles)
+    jac = np.abs(e[..., 3])[..., None] * np.sqrt(a * a + (d[..., 3] ** 2)[..., None])
+    jac = np.where((speed > 0.0)[..., None], jac, 0.0)
+    return 2.0 * np.pi * (jac.mean(2) * wu).sum(1)
 
 
 def _similarity(m: np.ndarray) -> np.ndarray:
@@ -350,7 +418,34 @@ def _texture_ids(data, row: int, slot: int, emit: np.ndarray) -> dict:
     return {'EMISSION_TEX': int(emit[3]), 'GPRIM': int(data.pr_gp_start[data.in_proto[row]]) + slot}
 
 
-def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLights:
+def _curve_rows(data, tubes: list, first: int):
+    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive curve segments, lights first, first + 1, ...: a
+    placement's segments are consecutive lights, so that a hit's light is its gprim slot's first one plus its
+    primitive (`kernel/surface_lights.light_of_hit`); the tree sees a segment's control points' box grown by its
+    largest radius (the tube lies inside it) and its largest projected area, about A / pi."""
+    sl_f, sl_i, bounds, row_lights = [], [], [], []
+    for rows, slot, world, emit in tubes:
+        R, n = world.shape[:2]
+        q = world.reshape(-1, 4, 4)
+        e = np.repeat(emit, n, axis=0)
+        area = tube_areas(q)
+        f = np.zeros((R * n, SURFACE_LIGHT_F.width))
+        i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
+        SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], AREA=area, CTRL=q.reshape(-1, 16))
+        SURFACE_LIGHT_I.write_rows(i, CURVE=np.ones(R * n, np.int64), EMISSION_TEX=np.full(R * n, -1, np.int64),
+                                   GPRIM=np.repeat([_texture_ids(data, row, slot, emit[k])['GPRIM']
+                                                    for k, row in enumerate(rows)], n))
+        reach = np.abs(q[:, :, 3]).max(1)[:, None]
+        lo, hi = q[:, :, :3].min(1) - reach, q[:, :, :3].max(1) + reach
+        start = len(bounds)
+        bounds += [(a, b, float(p), ENTIRE, True) for a, b, p in zip(lo, hi, area / np.pi * e[:, 4])]
+        sl_f += list(f)
+        sl_i += list(i)
+        row_lights.append((rows, slot, first + start + n * np.arange(R)))
+    return sl_f, sl_i, bounds, row_lights
+
+
+def _tables(data, groups: list, balls: list, first: int, movers=(), tubes=()) -> SurfaceLights:
     sl_f, sl_i, tris, cdfs, bounds = [], [], [], [], []
     row_lights = []                               # (rows, slot, light numbers)
     n_light = n_tri = 0
@@ -379,6 +474,8 @@ def _tables(data, groups: list, balls: list, first: int, movers=()) -> SurfaceLi
         n_light += R
         n_tri += R * n
     f, i, b, rl = _ball_rows(data, balls, first + n_light)
+    f1, i1, b1, rl1 = _curve_rows(data, tubes, first + n_light + len(b))
+    f, i, b, rl = f + f1, i + i1, b + b1, rl + rl1
     f2, i2, t2, c2, b2, rl2 = _mover_rows(data, movers, first + n_light + len(b), n_tri)
     f, i = f + f2, i + i2
     tris += t2

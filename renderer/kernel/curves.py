@@ -28,6 +28,7 @@ import numba as nb
 
 from .jit import SHADING_INLINE_JIT
 from .tables import GP_LINEAR, GP_RIBBON
+from .vecmath import onb
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -120,14 +121,58 @@ def _ribbon_normal(S, j, u, d, speed, vo):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def _circle_normal(d, dd, r, speed, w):
-    """The unit normal at c + r w of the surface of circles of radius r(u) perpendicular to the curve (w: unit,
-    perpendicular to c'): normalize(a w - r' t), a = |c'| - r w . t' (t: the unit tangent, t' = dt/du), as the
-    cross product of the surface's two tangents, the circle's carried along the curve without twisting."""
+def _circle_cross(d, dd, r, speed, w):
+    """a w - r' t, a = |c'| - r w . t' (t: the unit tangent, t' = dt/du): at c + r w of the surface of circles of
+    radius r(u) perpendicular to the curve (w: unit, perpendicular to c'), the cross product of the surface's two
+    tangents divided by r (those of u, the circle's carried along the curve without twisting, and of its angle)."""
     t = (d[0] / speed, d[1] / speed, d[2] / speed)
     b = dd[0] * t[0] + dd[1] * t[1] + dd[2] * t[2]
     tp = ((dd[0] - b * t[0]) / speed, (dd[1] - b * t[1]) / speed, (dd[2] - b * t[2]) / speed)
     a = speed - r * (w[0] * tp[0] + w[1] * tp[1] + w[2] * tp[2])
-    n = (a * w[0] - d[3] * t[0], a * w[1] - d[3] * t[1], a * w[2] - d[3] * t[2])
+    return a * w[0] - d[3] * t[0], a * w[1] - d[3] * t[1], a * w[2] - d[3] * t[2]
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _circle_normal(d, dd, r, speed, w):
+    """The unit normal at c + r w of the surface of circles (`_circle_cross`): it leans back along the curve where
+    the radius grows."""
+    n = _circle_cross(d, dd, r, speed, w)
     inv = 1.0 / math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
     return n[0] * inv, n[1] * inv, n[2] * inv
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def tube_point(q0, q1, q2, q3, u, cs):
+    """(point, unit normal, area element J) of the tube of circles of the Bezier segment q0..q3 (x, y, z, radius) at
+    u and at the angle whose (cos, sin) is cs around its circle, from a frame perpendicular to the curve (`onb`):
+    J = r |a w - r' t| (`_circle_cross`) is the area the map (u, angle) -> point covers per unit of both; J = 0 where
+    the segment has no tangent."""
+    e, d, dd = evaluate(q0, q1, q2, q3, u)
+    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if not speed > 0.0:
+        return (e[0], e[1], e[2]), (0.0, 0.0, 1.0), 0.0
+    b1, b2 = onb((d[0] / speed, d[1] / speed, d[2] / speed))
+    w = (cs[0] * b1[0] + cs[1] * b2[0], cs[0] * b1[1] + cs[1] * b2[1], cs[0] * b1[2] + cs[1] * b2[2])
+    r = e[3]
+    n = _circle_cross(d, dd, r, speed, w)
+    m = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    return (e[0] + r * w[0], e[1] + r * w[1], e[2] + r * w[2]), (n[0] / m, n[1] / m, n[2] / m), abs(r) * m
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def tube_area_element(q0, q1, q2, q3, u, p):
+    """J (`tube_point`) at the point p of the tube of circles of the Bezier segment q0..q3 at u (its angle: p's
+    direction from the curve, without its part along it); 0 where it has none."""
+    e, d, dd = evaluate(q0, q1, q2, q3, min(1.0, max(0.0, u)))
+    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    if not speed > 0.0:
+        return 0.0
+    x = (p[0] - e[0], p[1] - e[1], p[2] - e[2])
+    a = (x[0] * d[0] + x[1] * d[1] + x[2] * d[2]) / (speed * speed)
+    x = (x[0] - a * d[0], x[1] - a * d[1], x[2] - a * d[2])
+    n2 = x[0] * x[0] + x[1] * x[1] + x[2] * x[2]
+    if not n2 > 0.0:
+        return 0.0
+    inv = 1.0 / math.sqrt(n2)
+    n = _circle_cross(d, dd, e[3], speed, (x[0] * inv, x[1] * inv, x[2] * inv))
+    return abs(e[3]) * math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])

@@ -278,7 +278,7 @@ def hit_emission(S, L, tr, sp, d, time, prev):
     emissive surface when the scene has no surface light) with weight 1."""
     em = emission(S, sp.mat, sp.st)
     if F_SURFACE_LIGHTS and L.n_surface > 0:
-        return surface_emission(S, L, tr, em, (sp.p, sp.ng, d, time), prev)
+        return surface_emission(S, L, tr, em, (sp.p, sp.ng, d, time, sp.st), prev)
     return em
 
 

@@ -16,6 +16,10 @@ A moving placement keeps its object-space triangles or sphere and is placed at t
 matrix Embree traced it with (`_placement`): an object area element dA is |cof(M) n| dA in the world, so
 A above becomes the object area times that scale (`_moving_point`, `_moving_area`).
 
+A curve segment (CURVE) is sampled uniformly in u along it and in angle around its circle
+(`curves.tube_point`): its density per unit area at the point is 1 / (2 pi J), J the tube's area element there, which
+a hit finds again from its point and Embree's u (`_curve_area_at`): 2 pi J takes A's place above.
+
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
 """
@@ -23,12 +27,14 @@ import math
 
 import numba as nb
 
-from .features import F_SPHERES, F_TEXTURES, F_XF_MOTION
+from .curves import tube_area_element, tube_point
+from .features import F_CURVES, F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .shapes import sphere_st, triangle_st
-from .tables import (GP_CLOUD, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_COUNT, SLI_ELLIPSOID,
-                     SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING)
+from .tables import (GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS,
+                     SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID, SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST,
+                     SLI_INST_PRIM, SLI_MOVING)
 from .textures import sample_texture
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
 from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
@@ -112,6 +118,33 @@ def _ellipsoid_point(L, j, u1, u2):
          f[SLF_CENTER + 2] + f[SLF_AXES + 6] * n[0] + f[SLF_AXES + 7] * n[1] + f[SLF_AXES + 8] * n[2])
     area, m = _ellipsoid_area(L, j, n)
     return q, normalize(m), area
+
+
+@nb.njit(**_JIT)
+def _control(L, j):
+    """The world Bezier control points (x, y, z, radius) of curve light j."""
+    f = L.sl_f[j]
+    return ((f[SLF_CTRL], f[SLF_CTRL + 1], f[SLF_CTRL + 2], f[SLF_CTRL + 3]),
+            (f[SLF_CTRL + 4], f[SLF_CTRL + 5], f[SLF_CTRL + 6], f[SLF_CTRL + 7]),
+            (f[SLF_CTRL + 8], f[SLF_CTRL + 9], f[SLF_CTRL + 10], f[SLF_CTRL + 11]),
+            (f[SLF_CTRL + 12], f[SLF_CTRL + 13], f[SLF_CTRL + 14], f[SLF_CTRL + 15]))
+
+
+@nb.njit(**_JIT)
+def _curve_point(L, j, u1, u2):
+    """(point, unit normal, 2 pi J) of curve light j: u uniform along its segment and the angle uniform around
+    its circle, whose density per unit area at the point is 1 / (2 pi J), J the area element there
+    (`curves.tube_point`)."""
+    q0, q1, q2, q3 = _control(L, j)
+    q, n, jac = tube_point(q0, q1, q2, q3, u1, turn(u2))
+    return q, n, 2.0 * math.pi * jac
+
+
+@nb.njit(**_JIT)
+def _curve_area_at(L, j, p, u):
+    """2 pi J at the point p of curve light j that a ray hit at Embree's u."""
+    q0, q1, q2, q3 = _control(L, j)
+    return 2.0 * math.pi * tube_area_element(q0, q1, q2, q3, u, p)
 
 
 @nb.njit(**_JIT)
@@ -199,6 +232,9 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
         at = q
+    elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
+        q, nrm, area = _curve_point(L, j, u1, u2)
+        at = q
     elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
         at = q
@@ -209,7 +245,7 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
         c = _texture_at(S, L, j, at)
         Le = (Le[0] * c[0], Le[1] * c[1], Le[2] * c[2])
     wi, d, d2 = toward(p, q)
-    if d2 <= 0.0:
+    if d2 <= 0.0 or not area > 0.0:
         return NONE
     c = dot(nrm, wi)
     if c == 0.0:
@@ -246,6 +282,8 @@ def light_of_hit(S, L, u):
     k = L.sl_idx[base + g - S.pr_gp_start[proto]]
     if F_SPHERES and k >= 0 and S.gp_flags[g] & GP_CLOUD:
         k += u[PRIM_ID]                              # a point cloud's point: its placement's lights, in order
+    if F_CURVES and k >= 0 and S.gp_kind[g] == GP_CURVES:
+        k += u[PRIM_ID]                              # a curve segment: its placement's lights, in order
     return k
 
 
@@ -253,7 +291,8 @@ def light_of_hit(S, L, u):
 def surface_emission(S, L, tr, Le, hit, prev):
     """Emission Le of the surface hit (ids in the ray buffer tr.u; hit = (its point, its unit geometric
     normal, the ray's direction, the ray's time)) MIS-weighted against the light sample that could have
-    drawn it; prev = (p0, n0, bsdf pdf, mode) as in `light_sampling.shape_emission`."""
+    drawn it; prev = (p0, n0, bsdf pdf, mode) as in `light_sampling.shape_emission`; hit[4]: its texture
+    coordinates (a curve's: Embree's u first)."""
     k = light_of_hit(S, L, tr.u)
     if k < 0:
         return Le
@@ -262,7 +301,7 @@ def surface_emission(S, L, tr, Le, hit, prev):
         return ZERO
     if mode == 1:
         return Le
-    p, ng, d, time = hit
+    p, ng, d, time = hit[0], hit[1], hit[2], hit[3]
     v = sub(p, p0)
     cos_l = abs(dot(ng, d))
     if not cos_l > 0.0:
@@ -272,6 +311,10 @@ def surface_emission(S, L, tr, Le, hit, prev):
         area = _moving_area(L, tr, j, time, ng)
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         area = _ellipsoid_area_at(L, j, p)
+    elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
+        area = _curve_area_at(L, j, p, hit[4][0])
+        if not area > 0.0:                          # (a point of no area: no light sample draws it)
+            return Le
     else:
         area = L.sl_f[j, SLF_AREA]
     pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * area)

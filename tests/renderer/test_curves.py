@@ -2,6 +2,7 @@
 on the exact tube (`kernel/curves.py`); closed forms for the silhouette and the shading, independent evaluations of
 each basis."""
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -569,14 +570,21 @@ def test_a_shots_next_frame_reuses_curves_only_when_their_bvh_would_be_the_same(
         assert not same_containers(a, b)
 
 
-def test_an_emissive_curve_is_seen_and_warned_about_as_no_sampled_light():
-    """An emissive tube is no light the path integrator samples (warned once, at render time), but camera and BSDF
-    rays that meet it see its emission: side-on before a black background, an orthographic view shows radiance
-    Le over the tube's silhouette, 2 r L of it."""
+@pytest.mark.parametrize('linear', [False, True])
+def test_an_emissive_curve_is_seen_a_cubic_one_a_light_a_linear_one_warned(linear):
+    """Camera rays that meet an emissive tube see its emission: side-on before a black background, an orthographic
+    view shows radiance Le over the tube's silhouette, 2 r L of it (+ pi r^2, a linear tube's round ends).  A cubic
+    tube is a light of the path integrator (`test_curve_lights.py`); a linear one is not (warned once, at render
+    time)."""
     glow = D.Material('/glow', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), emission=(3.0, 3.0, 3.0))
     r, half, n, width = 0.3, 1.5, 48, 4.0
-    desc = scene([D.Container('/p', curves=[_tube(r, half)])], [glow], [], _ortho(width), width=n, height=n)
-    with pytest.warns(RuntimeWarning, match='1 emissive curves gprims'):
+    desc = scene([D.Container('/p', curves=[_tube(r, half, linear=linear)])], [glow], [], _ortho(width), width=n,
+                 height=n)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter('always')
         img = render(desc, RenderOptions(spp=64, sampler='sobol', filter='box', integrator='path')).image[..., 0]
+    assert [str(w.message)[:25] for w in said if 'emissive curves' in str(w.message)] == \
+        (['1 emissive curves gprims '] if linear else [])
     assert img.max() == pytest.approx(3.0, rel=1e-6)
-    assert img.sum() * (width / n) ** 2 / 3.0 == pytest.approx(2 * r * 2 * half, rel=5e-3)
+    area = 2 * r * 2 * half + (math.pi * r * r if linear else 0.0)
+    assert img.sum() * (width / n) ** 2 / 3.0 == pytest.approx(area, rel=5e-3)

@@ -1,0 +1,78 @@
+"""Two stages lit by emissive curves, for measuring curve segments as lights of the path integrator
+(`ab_noise.py` against a revision where they were found by BSDF rays alone):
+
+* ``tube.usda``: one thick, tapering, wavy tube (widths 0.1-0.8) above a diffuse floor under a dim dome;
+* ``neon.usda``: a thin tube (width 0.06) before a diffuse wall, over a rough metal floor (roughness 0.25).
+
+    python benchmarks/gen_curve_lights.py OUT_DIR
+    python benchmarks/ab_noise.py OUT_DIR/tube.usda OUT_DIR/neon.usda --base REV --integrator path \\
+        --width 160 --height 120 --spp 16 --ref-spp 256 --seeds 3 --max-depth 4
+"""
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+WAVY = [(-1.5, 0.8, 0.0), (-0.5, 1.6, 0.5), (0.5, 0.3, -0.5), (1.5, 1.0, 0.2)]
+NEON = [(-1.5, 0.3, -1.0), (-0.5, 1.8, -1.0), (0.5, 0.2, -1.0), (1.5, 1.5, -1.0)]
+
+
+def _material(st, path: str, **inputs) -> UsdShade.Material:
+    mat = UsdShade.Material.Define(st, path)
+    sh = UsdShade.Shader.Define(st, path + '/S')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    for name, value in inputs.items():
+        sh.CreateInput(name, Sdf.ValueTypeNames.Color3f if isinstance(value, tuple) else
+                       Sdf.ValueTypeNames.Float).Set(value)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    return mat
+
+
+def _quad(st, path: str, points, material) -> None:
+    mesh = UsdGeom.Mesh.Define(st, path)
+    mesh.CreatePointsAttr(points)
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+
+
+def stage(points, widths, floor: dict, wall: bool) -> Usd.Stage:
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    _quad(st, '/World/Floor', [(-4, 0, -4), (4, 0, -4), (4, 0, 4), (-4, 0, 4)],
+          _material(st, '/World/FloorMat', **floor))
+    if wall:
+        _quad(st, '/World/Wall', [(-4, 0, -1.3), (-4, 4, -1.3), (4, 4, -1.3), (4, 0, -1.3)],
+              _material(st, '/World/WallMat', diffuseColor=(0.7, 0.7, 0.7), roughness=0.9))
+    tube = UsdGeom.BasisCurves.Define(st, '/World/Tube')
+    tube.CreateTypeAttr('cubic')
+    tube.CreateBasisAttr('bezier')
+    tube.CreatePointsAttr(points)
+    tube.CreateCurveVertexCountsAttr([len(points)])
+    tube.CreateWidthsAttr(widths)
+    tube.SetWidthsInterpolation(UsdGeom.Tokens.vertex if len(widths) > 1 else UsdGeom.Tokens.constant)
+    UsdShade.MaterialBindingAPI.Apply(tube.GetPrim()).Bind(
+        _material(st, '/World/Glow', diffuseColor=(0.0, 0.0, 0.0), emissiveColor=(4.0, 3.0, 2.0)))
+    UsdLux.DomeLight.Define(st, '/World/Sky').CreateIntensityAttr(0.05)
+    cam = UsdGeom.Camera.Define(st, '/World/Cam')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 3, 5))
+    cam.AddRotateXOp().Set(-30.0)
+    return st
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('out', type=Path)
+    out = ap.parse_args().out
+    out.mkdir(parents=True, exist_ok=True)
+    stage(WAVY, [0.1, 0.6, 0.3, 0.8], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.9), False).Export(
+        str(out / 'tube.usda'))
+    stage(NEON, [0.06], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.25, metallic=1.0), True).Export(
+        str(out / 'neon.usda'))
+    print(f'wrote {out / "tube.usda"} and {out / "neon.usda"}')
+
+
+if __name__ == '__main__':
+    main()

@@ -1,0 +1,152 @@
+"""Emissive cubic curves are lights of the path integrator (`host/surface_lights.py`, `kernel/surface_lights.py`):
+a light a segment at each placement, sampled uniformly in u along it and in angle around its circle, whose density
+per unit area is 1 / (2 pi J), J the area element of the tube of circles (`kernel/curves.tube_point`).  Light
+sampling alone, BSDF sampling alone and MIS converge to one image; the area element against closed forms and an
+independent quadrature."""
+import math
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from rtc.renderer.host.render import RenderOptions, Renderer
+from rtc.renderer.host.build import build
+from rtc.renderer.host.surface_lights import surface_lights, tube_areas
+from rtc.renderer.kernel.curves import tube_area_element, tube_point
+from rtc.renderer.kernel.tables import SLI_CURVE
+from rtc.renderer.kernel.vecmath import turn
+from rtc.renderer.usd.stage import read_stage
+
+WAVY = np.array([[-1.5, 0.8, 0.0, 0.05], [-0.5, 1.6, 0.5, 0.3], [0.5, 0.3, -0.5, 0.15], [1.5, 1.0, 0.2, 0.4]])
+
+
+def _line(p0, p1, r0, r1):
+    a = np.linspace(0.0, 1.0, 4)[:, None]
+    return np.column_stack([(1 - a) * np.array(p0, float) + a * np.array(p1, float), (1 - a[:, 0]) * r0 + a[:, 0] * r1])
+
+
+def test_tube_areas_against_closed_forms():
+    """A frustum: pi (r0 + r1) times its slant height; a tube of constant radius around any curve: 2 pi r times the
+    curve's length (Pappus), the length by a fine independent quadrature."""
+    assert tube_areas(_line((0, 0, 0), (2, 0, 0), 0.1, 0.4)[None])[0] == pytest.approx(
+        math.pi * 0.5 * math.hypot(2.0, 0.3), rel=1e-12)
+    q = WAVY.copy()
+    q[:, 3] = 0.2
+    u = np.linspace(0.0, 1.0, 200001)
+    s = 1.0 - u
+    d = np.stack([-3 * s * s, 3 * s * s - 6 * s * u, 6 * s * u - 3 * u * u, 3 * u * u], 1) @ q[:, :3]
+    length = np.trapezoid(np.linalg.norm(d, axis=1), u)
+    assert tube_areas(q[None], nodes=32, angles=64)[0] == pytest.approx(2 * math.pi * 0.2 * length, rel=1e-9)
+    assert tube_areas(q[None])[0] == pytest.approx(2 * math.pi * 0.2 * length, rel=1e-4)
+
+
+def test_a_sampled_point_lies_on_the_tube_and_its_hit_gives_back_its_density():
+    """Points drawn on the wavy, tapering tube: on the circle of radius r(u) around c(u), perpendicular to c'(u);
+    the area element recomputed from the point alone (as a ray's hit gives it) is the sample's; the mean of 2 pi J
+    over uniform (u, angle) is the tube's area (an independent quadrature)."""
+    q = tuple(tuple(float(x) for x in row) for row in WAVY)
+    rng = np.random.default_rng(7)
+    total = []
+    for u, a in rng.random((4000, 2)):
+        p, n, jac = tube_point(*q, u, turn(a))
+        s = 1.0 - u
+        b = np.array([s ** 3, 3 * s * s * u, 3 * s * u * u, u ** 3])
+        db = np.array([-3 * s * s, 3 * s * s - 6 * s * u, 6 * s * u - 3 * u * u, 3 * u * u])
+        c, dc = b @ WAVY, db @ WAVY
+        x = np.array(p) - c[:3]
+        assert np.linalg.norm(x) == pytest.approx(c[3], rel=1e-9)
+        assert abs(x @ dc[:3]) <= 1e-9 * np.linalg.norm(dc[:3])
+        assert tube_area_element(*q, u, p) == pytest.approx(jac, rel=1e-7)
+        assert np.linalg.norm(n) == pytest.approx(1.0, rel=1e-12)
+        total.append(2 * math.pi * jac)
+    assert np.mean(total) == pytest.approx(tube_areas(WAVY[None], nodes=32, angles=64)[0], rel=0.02)
+
+
+WIDTHS = (0.1, 0.6, 0.3, 0.8, 0.4, 0.5, 0.2, 0.2, 0.3, 0.2, 0.1)
+
+
+def _stage(placements=((1.0, (0.0, 0.0, 0.0)),), dome=0.05, specular=True, widths=WIDTHS):
+    """An emissive gprim of two cubic curves (two segments and one; tapering, wavy) above a grey floor under a dim
+    dome, placed (uniform scale, offset) once per entry of `placements` (instances of one prototype); its material
+    reflects as a default UsdPreviewSurface's specular layer does, or (not `specular`) nothing."""
+    st = Usd.Stage.CreateInMemory()
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    floor = UsdGeom.Mesh.Define(st, '/World/Floor')
+    floor.CreatePointsAttr([(-4, 0, -4), (4, 0, -4), (4, 0, 4), (-4, 0, 4)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    black = {} if specular else {'useSpecularWorkflow': 1, 'specularColor': (0.0, 0.0, 0.0)}
+    glow = _material(st, '/World/Glow', diffuseColor=(0.0, 0.0, 0.0), emissiveColor=(4.0, 3.0, 2.0), **black)
+    grey = _material(st, '/World/Grey', diffuseColor=(0.7, 0.7, 0.7), roughness=0.9)
+    UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(grey)
+    proto = st.CreateClassPrim('/Lamp')
+    tube = UsdGeom.BasisCurves.Define(st, '/Lamp/Tube')
+    tube.CreateTypeAttr('cubic')
+    tube.CreateBasisAttr('bezier')
+    second = WAVY[:, :3] * (1.0, 0.6, -1.0) + (0.3, 0.4, 0.8)
+    points = np.concatenate([WAVY[:, :3], [(2.5, 1.2, 0.0), (3.0, 0.5, 0.5), (3.5, 1.0, 1.0)], second])
+    tube.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
+    tube.CreateCurveVertexCountsAttr([7, 4])
+    tube.CreateWidthsAttr(list(widths))
+    tube.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    UsdShade.MaterialBindingAPI.Apply(tube.GetPrim()).Bind(glow)
+    for k, (scale, at) in enumerate(placements):
+        xf = UsdGeom.Xform.Define(st, f'/World/Lamp{k}')
+        xf.GetPrim().GetReferences().AddInternalReference(proto.GetPath())
+        xf.GetPrim().SetInstanceable(True)
+        xf.AddTranslateOp().Set(Gf.Vec3d(*at))
+        xf.AddScaleOp().Set(Gf.Vec3f(scale, scale, scale))
+    UsdLux.DomeLight.Define(st, '/World/Sky').CreateIntensityAttr(dome)
+    cam = UsdGeom.Camera.Define(st, '/World/Cam')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.5, 3.0, 6.0))
+    cam.AddRotateXOp().Set(-28.0)
+    return st
+
+
+def _material(st, path, **inputs):
+    mat = UsdShade.Material.Define(st, path)
+    sh = UsdShade.Shader.Define(st, path + '/S')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    for name, value in inputs.items():
+        kind = {tuple: Sdf.ValueTypeNames.Color3f, int: Sdf.ValueTypeNames.Int}.get(type(value),
+                                                                                   Sdf.ValueTypeNames.Float)
+        sh.CreateInput(name, kind).Set(value)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    return mat
+
+
+def _mean(r, strategy, spp):
+    return np.mean([r.render(RenderOptions(width=40, height=30, spp=spp, seed=s, integrator='path', max_depth=2,
+                                           strategy=strategy, sampler='independent')).image.astype(np.float64)
+                    for s in range(2)], 0)
+
+
+@pytest.mark.parametrize('specular', [False, True])
+def test_light_sampling_and_bsdf_sampling_find_the_same_curve_lights(specular):
+    """Two placements (one scaled 0.7), three segments each: light k of a hit is its placement's first plus the
+    segment (a wrong one, or a wrong density, would bias the MIS image away from BSDF sampling's); with a specular
+    layer, the tube also lights itself (its concave side sees the rest of it)."""
+    desc = read_stage(_stage(((1.0, (0.0, 0.0, 0.0)), (0.7, (-1.0, 0.2, -1.5))), specular=specular))
+    assert desc.warnings == []
+    built = build(desc)
+    try:
+        tables = surface_lights(built.data, 0)
+    finally:
+        built.close()
+    assert len(tables.sl_f) == 6 and list(tables.sl_i[:, SLI_CURVE]) == [1] * 6
+    with Renderer(desc) as r:
+        nee, bsdf, mis = (_mean(r, s, spp) for s, spp in (('nee', 256), ('bsdf', 1024), ('mis', 256)))
+    floor = mis.mean()
+    assert floor > 0.05
+    assert nee.mean() == pytest.approx(floor, rel=0.01), (nee.mean(), floor)
+    assert bsdf.mean() == pytest.approx(floor, rel=0.01), (bsdf.mean(), floor)
+
+
+def test_each_segment_is_its_own_light():
+    """A hair-thin segment beside thick ones in one gprim: were a hit on a thick segment weighed as a sample of the
+    thin one's light (its density there, its probability in the tree), MIS would lose most of what BSDF sampling
+    finds on it."""
+    desc = read_stage(_stage(widths=(0.01, 0.01, 0.01, 0.9, 0.9, 0.9, 0.9, 0.01, 0.01, 0.01, 0.01), specular=False))
+    with Renderer(desc) as r:
+        bsdf, mis = (_mean(r, s, spp) for s, spp in (('bsdf', 1024), ('mis', 256)))
+    assert bsdf.mean() == pytest.approx(mis.mean(), rel=0.01), (bsdf.mean(), mis.mean())
