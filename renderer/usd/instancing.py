@@ -134,8 +134,9 @@ def _to_numpy(matrices: list) -> np.ndarray:
 
 
 class InstanceGraph:
-    def __init__(self, stage: Usd.Stage, time: Usd.TimeCode, warn: Warn):
+    def __init__(self, stage: Usd.Stage, time: Usd.TimeCode, warn: Warn, expand: frozenset = frozenset()):
         self.stage, self.time, self.warn = stage, time, warn
+        self.expand = expand                    # instance prim paths walked as their own geometry (`_children`)
         self.nodes: list[Node] = []
         self.index: dict[str, int] = {}
         self.skipped: list[str] = []
@@ -212,11 +213,9 @@ class InstanceGraph:
         frames = []            # (children iterator, path prefix, instance names, purpose, binding authored)
 
         def push(parent: Usd.Prim, path: str, p: int, b: bool) -> bool:
-            kids = parent.GetFilteredChildren(pred)
+            kids, names, instances = self._children(parent, path, pred, inst_pred)
             if not kids:
                 return False
-            names = parent.GetFilteredChildrenNames(pred)
-            instances = set(parent.GetFilteredChildrenNames(inst_pred))
             frames.append((iter(zip(kids, names)), '/' if path == '/' else path + '/', instances, p, b))
             return True
 
@@ -275,6 +274,22 @@ class InstanceGraph:
                     break                        # depth first: the children before the next sibling
             else:
                 frames.pop()
+
+    def _children(self, parent: Usd.Prim, path: str, pred, inst_pred) -> tuple:
+        """(children, their names, the names of those that are instances) of a walked prim.  An instance of
+        `self.expand` (its own geometry: a skeletal model posed otherwise than its prototype's other instances) and
+        everything below it are walked through their instance proxies, none of them an instance."""
+        if self.expand and (path in self.expand or parent.IsInstanceProxy()):
+            proxies = Usd.TraverseInstanceProxies(pred)
+            return parent.GetFilteredChildren(proxies), parent.GetFilteredChildrenNames(proxies), set()
+        kids = parent.GetFilteredChildren(pred)
+        if not kids:
+            return kids, (), set()
+        instances = set(parent.GetFilteredChildrenNames(inst_pred))
+        if self.expand:
+            prefix = '/' if path == '/' else path + '/'
+            instances = {n for n in instances if prefix + n not in self.expand}
+        return kids, parent.GetFilteredChildrenNames(pred), instances
 
     @staticmethod
     def _binding_key(prim: Usd.Prim, names: list, parent: str) -> Optional[tuple]:

@@ -13,6 +13,10 @@ queries (`UsdSkel.Cache`) give each skeleton its skinning transforms at the time
    skeleton's), so that the reader places it with the gprim's own transform as any other gprim
    (`UsdSkel.BakeSkinning` writes them so too).
 
+Instances of one skeletal model posed alike share their prototype's posed gprims; instances posed each their own
+way (an animation bound on each instance prim) are drawn each as its own geometry: the reader walks them again
+through their instance proxies (`Poses.expand`, `InstanceGraph.expand`).
+
 A skinned mesh's authored normals are not used (UsdSkelImaging does not skin them either: Storm computes them from
 the posed points). The Skeleton prims themselves are not drawn (usdview draws their bones as a guide; renderers do
 not). A gprim that cannot be posed (a query fails, a non-finite transform) keeps its bind pose, warned.
@@ -28,11 +32,48 @@ Warn = Callable[[str], None]
 PREDICATE = Usd.TraverseInstanceProxies(Usd.PrimDefaultPredicate)
 
 
-def posed_points(roots: list, time: Usd.TimeCode, warn: Warn) -> dict:
-    """{gprim path: its posed points (n, 3) float64 in its own space} for the skinned point-based gprims under
-    `roots` (SkelRoot prims).  Under an instance (a SkelRoot that is an instance prim), the gprim is its prototype's:
-    all of its instances share one pose (if their poses differ, the first is kept, warned)."""
-    cache, out, differ = UsdSkel.Cache(), {}, set()
+class Poses:
+    """The posed points of a stage's skinned gprims (`posed_points`); `expand`: the instance prims whose
+    prototype's instances are posed differently (an animation bound per instance), which the reader walks through
+    their instance proxies, each its own geometry."""
+
+    def __init__(self):
+        self.points: dict = {}          # gprim path (a prototype's, an instance proxy's when posed otherwise) -> points
+        self.instances: dict = {}       # prototype gprim path -> the instance prims whose proxies of it are posed
+        self.differ: set = set()        # prototype gprim paths whose instances are not all posed alike
+
+    def get(self, prim: Usd.Prim):
+        """The posed points of a gprim as walked (on the stage, in a prototype, or an instance proxy), or None."""
+        path = str(prim.GetPath())
+        if path in self.points:
+            return self.points[path]
+        return self.points.get(str(prim.GetPrimInPrototype().GetPath())) if prim.IsInstanceProxy() else None
+
+    @property
+    def expand(self) -> frozenset:
+        return frozenset(p for key in self.differ for p in self.instances[key])
+
+    def add(self, gprim: Usd.Prim, points: np.ndarray) -> None:
+        if not gprim.IsInstanceProxy():
+            self.points[str(gprim.GetPath())] = points
+            return
+        key = str(gprim.GetPrimInPrototype().GetPath())
+        root = gprim
+        while not root.IsInstance():
+            root = root.GetParent()
+        self.instances.setdefault(key, []).append(str(root.GetPath()))
+        first = self.points.setdefault(key, points)
+        if first is not points and not np.array_equal(first, points):
+            self.differ.add(key)
+            self.points[str(gprim.GetPath())] = points     # (the first instance's proxy: the prototype's entry)
+
+
+def posed_points(roots: list, time: Usd.TimeCode, warn: Warn) -> Poses:
+    """The posed points (n, 3) float64, each in its gprim's own space, of the skinned point-based gprims under
+    `roots` (SkelRoot prims).  Under an instance (a SkelRoot that is an instance prim), a gprim is its prototype's:
+    instances posed alike share it; instances posed each their own way are drawn each as its own geometry
+    (`Poses.expand`)."""
+    cache, out = UsdSkel.Cache(), Poses()
     for prim in roots:
         root = UsdSkel.Root(prim)
         if not cache.Populate(root, PREDICATE):
@@ -46,21 +87,14 @@ def posed_points(roots: list, time: Usd.TimeCode, warn: Warn) -> dict:
             skel_to_world = UsdGeom.Xformable(skel_query.GetPrim()).ComputeLocalToWorldTransform(time)
             for query in binding.GetSkinningTargets():
                 gprim = query.GetPrim()
-                key = str((gprim.GetPrimInPrototype() if gprim.IsInstanceProxy() else gprim).GetPath())
                 if not gprim.IsA(UsdGeom.PointBased):
                     if query.HasJointInfluences():
                         warn(f'{gprim.GetPath()}: a {gprim.GetTypeName()} bound to a skeleton is drawn unposed '
                              '(rtc poses point-based gprims only)')
                     continue
                 points = _posed(query, skel_query, xforms, skel_to_world, gprim, time, warn)
-                if points is None:
-                    continue
-                if key not in out:
-                    out[key] = points
-                elif key not in differ and not np.array_equal(out[key], points):
-                    differ.add(key)
-                    warn(f'{gprim.GetPath()}: instances of {key} are posed differently (an animation bound per '
-                         'instance); every instance is drawn in the pose of the first')
+                if points is not None:
+                    out.add(gprim, points)
     return out
 
 

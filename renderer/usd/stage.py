@@ -120,7 +120,7 @@ class _Reader:
         self.materials = MaterialTable(self.tc, self.warn)
         self.backgrounds: set[str] = set()     # DomeLights marked rtc:background (course background colour)
         self.mesh_lights = 0                   # gprims (per binding resolution) with UsdLux MeshLightAPI
-        self.posed: dict = {}                  # gprim path -> its points posed by a skeleton (skinning.py)
+        self.posed = None                      # skinning.Poses: points posed by a skeleton, where a SkelRoot is
 
     def warn(self, message: str) -> None:
         self.warnings.append(message)
@@ -133,10 +133,14 @@ class _Reader:
 
         graph = InstanceGraph(stage, self.tc, self.warn)
         graph.build()
-        self.skipped += graph.skipped
         if graph.skel_roots:
             from .skinning import posed_points
             self.posed = posed_points(graph.skel_roots, self.tc, self.warn)
+            if self.posed.expand:                # instances posed each their own way: each its own geometry
+                graph = InstanceGraph(stage, self.tc, lambda message: None, self.posed.expand)
+                graph.build()                    # (its walk's warnings were given by the first)
+                graph.warn = self.warn
+        self.skipped += graph.skipped
 
         settings_prim = render_settings_prim(stage, graph.settings)
         settings, background, policy = read_render_settings(settings_prim, self.tc)
@@ -203,7 +207,7 @@ class _Reader:
         node, shapes = graph.nodes[n], []
         for (prim, purpose), rel in zip(node.gprims, node.gprim_xf):
             try:
-                records = self.convert(prim, rel[0], self.tc, self.warn, self.posed.get(str(prim.GetPath())))
+                records = self.convert(prim, rel[0], self.tc, self.warn, self.posed.get(prim) if self.posed else None)
             except GeometryError as exc:
                 self.skipped.append(str(exc))
                 continue

@@ -218,9 +218,10 @@ def test_a_pose_that_is_not_finite_keeps_the_bind_pose_and_says_so():
         [w for w in desc.warnings if 'Arm' in w]
 
 
-def test_instances_animated_each_their_own_way_are_drawn_in_the_first_pose_and_warned():
-    """An animation bound on each instance prim (UsdSkel's per-instance animation): rtc shares one prototype, so it
-    keeps the first instance's pose and says so."""
+def test_instances_animated_each_their_own_way_are_each_drawn_in_their_own_pose():
+    """An animation bound on each instance prim (UsdSkel's per-instance animation): the instances of one prototype
+    posed differently are drawn each as its own geometry (walked through their instance proxies), each in its pose,
+    with its own material and placement; the rest of the stage stays instanced."""
     st = _stage()
     _arm(st, root='/Proto')
     st.GetPrimAtPath('/Proto').SetSpecifier(Sdf.SpecifierClass)
@@ -234,11 +235,21 @@ def test_instances_animated_each_their_own_way_are_drawn_in_the_first_pose_and_w
         inst = st.DefinePrim(f'/I{k}')
         inst.GetReferences().AddInternalReference('/Proto')
         UsdSkel.BindingAPI.Apply(inst).CreateAnimationSourceRel().SetTargets([anim])
+        UsdGeom.Xformable(inst).AddTranslateOp(opSuffix='place').Set(Gf.Vec3d(10.0 * k, 0, 0))
         inst.SetInstanceable(True)
+    UsdGeom.Cube.Define(st, '/Box/Cube')
+    st.GetPrimAtPath('/Box').SetSpecifier(Sdf.SpecifierClass)
+    for k in range(2):
+        crate = st.DefinePrim(f'/Crate{k}')
+        crate.GetReferences().AddInternalReference('/Box')
+        crate.SetInstanceable(True)
     desc = read_stage(st, time=10.0)
-    (k,) = [k for k, c in enumerate(desc.containers) if c.meshes]
-    posed = desc.containers[k].meshes[0].points
-    np.testing.assert_allclose(posed, np.concatenate([np.array(LOWER), _bent(UPPER)]), atol=1e-6)   # /I0's pose
-    assert [w for w in desc.warnings if 'posed differently' in w] == [
-        '/I1/Arm: instances of /__Prototype_1/Arm are posed differently (an animation bound per instance); every '
-        'instance is drawn in the pose of the first']
+    meshes = {m.path: m for c in desc.containers for m in c.meshes}
+    np.testing.assert_allclose(meshes['/I0/Arm'].points, np.concatenate([np.array(LOWER), _bent(UPPER)]) + ROOT_AT,
+                               atol=1e-6)
+    np.testing.assert_allclose(meshes['/I1/Arm'].points, np.array(LOWER + UPPER) + ROOT_AT + (10.0, 0.0, 0.0),
+                               atol=1e-6)
+    (crates,) = [c.key for c in desc.containers for m in c.meshes if m.path.endswith('/Cube')]
+    assert crates != '/'                            # (the crates are still instances of their prototype)
+    assert len([m for m in meshes if m.endswith('/Arm')]) == 2
+    assert not [w for w in desc.warnings if 'Arm' in w]
