@@ -65,6 +65,18 @@ def test_a_sampled_point_lies_on_the_tube_and_its_hit_gives_back_its_density():
 WIDTHS = (0.1, 0.6, 0.3, 0.8, 0.4, 0.5, 0.2, 0.2, 0.3, 0.2, 0.1)
 
 
+def test_the_area_element_is_the_jacobian_of_the_map():
+    """J of `tube_point` against central differences of the map (u, angle) -> point itself (its frame included)."""
+    q = tuple(tuple(float(x) for x in row) for row in WAVY)
+    point = lambda u, a: np.array(tube_point(*q, u, (math.cos(2 * math.pi * a), math.sin(2 * math.pi * a)))[0])
+    h = 1e-6
+    for u, a in np.random.default_rng(1).uniform(0.01, 0.99, (300, 2)):
+        du = (point(u + h, a) - point(u - h, a)) / (2 * h)
+        da = (point(u, a + h) - point(u, a - h)) / (2 * h) / (2 * math.pi)
+        jac = tube_point(*q, u, (math.cos(2 * math.pi * a), math.sin(2 * math.pi * a)))[2]
+        assert np.linalg.norm(np.cross(du, da)) == pytest.approx(jac, rel=1e-7)
+
+
 def _stage(placements=((1.0, (0.0, 0.0, 0.0)),), dome=0.05, specular=True, widths=WIDTHS):
     """An emissive gprim of two cubic curves (two segments and one; tapering, wavy) above a grey floor under a dim
     dome, placed (uniform scale, offset) once per entry of `placements` (instances of one prototype); its material
