@@ -48,9 +48,10 @@ The light tree's phi uses the texture's mean absolute value (`texture_mean`).
 
 A cubic curves gprim (UsdGeom.BasisCurves drawn as Embree's round curves) is a light a segment at each
 placement, a placement's segments consecutive lights (a hit's light: its gprim slot's first plus its primitive,
-as a cloud's balls): its world control points and radii (CTRL), sampled uniformly in u and in angle around the
-tube's circle, the density per unit area 1 / (2 pi J) at the point, J the tube's area element there
-(`kernel/curves.tube_point`), for light samples and hits alike.  Its tree bounds: the control points' box grown by
+as a cloud's balls): its world control points and radii (CTRL), sampled in u by bins weighted by what each sends the
+shading point and uniformly in angle around the tube's circle, the density per unit area f(u) / (2 pi J) at the
+point, J the tube's area element there (`kernel/curves.tube_point`, `kernel/surface_lights._curve_point`), for
+light samples and hits alike.  Its tree bounds: the control points' box grown by
 its largest radius, phi its largest projected area (about A / pi) times its luminance.  Only placements by a
 similarity (the world tube is the tube of the world curve) that do not move, and untextured emission.
 

@@ -16,9 +16,11 @@ A moving placement keeps its object-space triangles or sphere and is placed at t
 matrix Embree traced it with (`_placement`): an object area element dA is |cof(M) n| dA in the world, so
 A above becomes the object area times that scale (`_moving_point`, `_moving_area`).
 
-A curve segment (CURVE) is sampled uniformly in u along it and in angle around its circle
-(`curves.tube_point`): its density per unit area at the point is 1 / (2 pi J), J the tube's area element there, which
-a hit finds again from its point and Embree's u (`_curve_area_at`): 2 pi J takes A's place above.
+A curve segment (CURVE) is sampled in u by CURVE_BINS bins weighted by what each sends the shading point (its
+circle's circumference times the curve's speed over the squared distance, at the bin's middle), uniformly within
+the bin, and uniformly in angle around its circle (`curves.tube_point`): its density per unit area at the point is
+f(u) / (2 pi J), J the tube's area element there, which a hit finds again from its point, Embree's u and the vertex
+it came from (`_curve_area_at`): 2 pi J / f(u) takes A's place above.
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -27,7 +29,7 @@ import math
 
 import numba as nb
 
-from .curves import tube_area_element, tube_point
+from .curves import evaluate, tube_area_element, tube_point
 from .features import F_CURVES, F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
@@ -130,21 +132,64 @@ def _control(L, j):
             (f[SLF_CTRL + 12], f[SLF_CTRL + 13], f[SLF_CTRL + 14], f[SLF_CTRL + 15]))
 
 
+CURVE_BINS = 8
+
+
 @nb.njit(**_JIT)
-def _curve_point(L, j, u1, u2):
-    """(point, unit normal, 2 pi J) of curve light j: u uniform along its segment and the angle uniform around
-    its circle, whose density per unit area at the point is 1 / (2 pi J), J the area element there
+def _bin_weight(q0, q1, q2, q3, k, p):
+    """The weight of bin k of a segment seen from p: its circle's circumference times its speed at the bin's middle,
+    over its squared distance from p (not below its radius squared): the light the bin sends p, up to the angles."""
+    e, d, _ = evaluate(q0, q1, q2, q3, (k + 0.5) / CURVE_BINS)
+    x = (p[0] - e[0], p[1] - e[1], p[2] - e[2])
+    speed = math.sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+    return (abs(e[3]) * speed + 1e-30) / max(x[0] * x[0] + x[1] * x[1] + x[2] * x[2], e[3] * e[3], 1e-30)
+
+
+@nb.njit(**_JIT)
+def _bin_density(q0, q1, q2, q3, p, u):
+    """The density in u at u of `_curve_point`'s draw seen from p (piecewise constant over CURVE_BINS bins)."""
+    total = 0.0
+    mine = 0.0
+    k_u = min(CURVE_BINS - 1, max(0, int(u * CURVE_BINS)))
+    for k in range(CURVE_BINS):
+        w = _bin_weight(q0, q1, q2, q3, k, p)
+        total += w
+        if k == k_u:
+            mine = w
+    return CURVE_BINS * mine / total
+
+
+@nb.njit(**_JIT)
+def _curve_point(L, j, p, u1, u2):
+    """(point, unit normal, 2 pi J / f(u)) of curve light j seen from p: u drawn with density f among CURVE_BINS
+    bins of the segment by their weight from p (`_bin_weight`), uniform within its bin, and the angle uniform around
+    the circle; the density per unit area at the point is f(u) / (2 pi J), J the area element there
     (`curves.tube_point`)."""
     q0, q1, q2, q3 = _control(L, j)
-    q, n, jac = tube_point(q0, q1, q2, q3, u1, turn(u2))
-    return q, n, 2.0 * math.pi * jac
+    total = 0.0
+    for k in range(CURVE_BINS):
+        total += _bin_weight(q0, q1, q2, q3, k, p)
+    target = u1 * total
+    acc = 0.0
+    k = CURVE_BINS - 1
+    w = 0.0
+    for i in range(CURVE_BINS):
+        w = _bin_weight(q0, q1, q2, q3, i, p)
+        if target < acc + w or i == CURVE_BINS - 1:
+            k = i
+            break
+        acc += w
+    t = min(max((target - acc) / w, 0.0), ONE_MINUS) if w > 0.0 else 0.5
+    u = (k + t) / CURVE_BINS
+    q, n, jac = tube_point(q0, q1, q2, q3, u, turn(u2))
+    return q, n, 2.0 * math.pi * jac / (CURVE_BINS * w / total)
 
 
 @nb.njit(**_JIT)
-def _curve_area_at(L, j, p, u):
-    """2 pi J at the point p of curve light j that a ray hit at Embree's u."""
+def _curve_area_at(L, j, p0, p, u):
+    """2 pi J / f(u) at the point p of curve light j that a ray from p0 hit at Embree's u (`_curve_point`)."""
     q0, q1, q2, q3 = _control(L, j)
-    return 2.0 * math.pi * tube_area_element(q0, q1, q2, q3, u, p)
+    return 2.0 * math.pi * tube_area_element(q0, q1, q2, q3, u, p) / _bin_density(q0, q1, q2, q3, p0, u)
 
 
 @nb.njit(**_JIT)
@@ -233,7 +278,7 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
         at = q
     elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
-        q, nrm, area = _curve_point(L, j, u1, u2)
+        q, nrm, area = _curve_point(L, j, p, u1, u2)
         at = q
     elif L.sl_i[j, SLI_COUNT] == 0:
         q, nrm = _sphere_point(L, j, u1, u2)
@@ -312,7 +357,7 @@ def surface_emission(S, L, tr, Le, hit, prev):
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         area = _ellipsoid_area_at(L, j, p)
     elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
-        area = _curve_area_at(L, j, p, hit[4][0])
+        area = _curve_area_at(L, j, p0, p, hit[4][0])
         if not area > 0.0:                          # (a point of no area: no light sample draws it)
             return Le
     else:

@@ -13,6 +13,7 @@ from rtc.renderer.host.render import RenderOptions, Renderer
 from rtc.renderer.host.build import build
 from rtc.renderer.host.surface_lights import surface_lights, tube_areas
 from rtc.renderer.kernel.curves import tube_area_element, tube_point
+from rtc.renderer.kernel.surface_lights import CURVE_BINS, _bin_density
 from rtc.renderer.kernel.tables import SLI_CURVE
 from rtc.renderer.kernel.vecmath import turn
 from rtc.renderer.usd.stage import read_stage
@@ -75,6 +76,23 @@ def test_the_area_element_is_the_jacobian_of_the_map():
         da = (point(u, a + h) - point(u, a - h)) / (2 * h) / (2 * math.pi)
         jac = tube_point(*q, u, (math.cos(2 * math.pi * a), math.sin(2 * math.pi * a)))[2]
         assert np.linalg.norm(np.cross(du, da)) == pytest.approx(jac, rel=1e-7)
+
+
+def test_the_bins_density_in_u_integrates_to_one_and_follows_the_bins_weights():
+    """`_bin_density` (the draw of u seen from p): piecewise constant over CURVE_BINS bins, mean 1 over [0, 1], and
+    in each bin its weight's share (circumference times speed over squared distance, an independent evaluation)."""
+    q = tuple(tuple(float(x) for x in row) for row in WAVY)
+    u = (np.arange(CURVE_BINS) + 0.5) / CURVE_BINS
+    s = 1.0 - u
+    b = np.stack([s ** 3, 3 * s * s * u, 3 * s * u * u, u ** 3], 1) @ WAVY
+    db = np.stack([-3 * s * s, 3 * s * s - 6 * s * u, 6 * s * u - 3 * u * u, 3 * u * u], 1) @ WAVY
+    for p in ((0.0, 0.0, 0.0), (1.5, 1.2, 0.3), (-3.0, 4.0, 2.0)):
+        f = np.array([_bin_density(*q, p, x) for x in u])
+        assert f.mean() == pytest.approx(1.0, rel=1e-12)
+        w = b[:, 3] * np.linalg.norm(db[:, :3], axis=1) / np.maximum(((np.array(p) - b[:, :3]) ** 2).sum(1),
+                                                                     b[:, 3] ** 2)
+        np.testing.assert_allclose(f, CURVE_BINS * w / w.sum(), rtol=1e-9)
+        assert _bin_density(*q, p, u[2] + 0.4 / CURVE_BINS) == f[2]
 
 
 def _stage(placements=((1.0, (0.0, 0.0, 0.0)),), dome=0.05, specular=True, widths=WIDTHS):
