@@ -11,7 +11,6 @@ subset; `-m slow` renders the whole corpus (about 40 s).
 from __future__ import annotations
 
 import subprocess
-import sys
 
 import numpy as np
 import pytest

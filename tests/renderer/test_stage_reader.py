@@ -410,7 +410,7 @@ def test_z_up_stage_is_rotated_to_y_up():
     stage = _stage('Z')
     ball = UsdGeom.Sphere.Define(stage, '/World/Ball')
     ball.AddTranslateOp().Set(Gf.Vec3d(1, 2, 3))
-    light = UsdLux.DistantLight.Define(stage, '/World/Sun')            # shines down -Z = down in Z-up
+    UsdLux.DistantLight.Define(stage, '/World/Sun')                    # shines down -Z = down in Z-up
     cam = UsdGeom.Camera.Define(stage, '/World/Cam')
     cam.AddTranslateOp().Set(Gf.Vec3d(0, -10, 0))
     cam.AddRotateXOp().Set(90.0)                                       # looks along +Y (Z-up "forward")
