@@ -146,17 +146,22 @@ def _bin_weight(q0, q1, q2, q3, k, p):
 
 
 @nb.njit(**_JIT)
+def _bin_weights(q0, q1, q2, q3, p):
+    """The CURVE_BINS weights of a segment's bins seen from p (`_bin_weight`), each evaluated once."""
+    return (_bin_weight(q0, q1, q2, q3, 0, p), _bin_weight(q0, q1, q2, q3, 1, p),
+            _bin_weight(q0, q1, q2, q3, 2, p), _bin_weight(q0, q1, q2, q3, 3, p),
+            _bin_weight(q0, q1, q2, q3, 4, p), _bin_weight(q0, q1, q2, q3, 5, p),
+            _bin_weight(q0, q1, q2, q3, 6, p), _bin_weight(q0, q1, q2, q3, 7, p))
+
+
+@nb.njit(**_JIT)
 def _bin_density(q0, q1, q2, q3, p, u):
     """The density in u at u of `_curve_point`'s draw seen from p (piecewise constant over CURVE_BINS bins)."""
+    ws = _bin_weights(q0, q1, q2, q3, p)
     total = 0.0
-    mine = 0.0
-    k_u = min(CURVE_BINS - 1, max(0, int(u * CURVE_BINS)))
     for k in range(CURVE_BINS):
-        w = _bin_weight(q0, q1, q2, q3, k, p)
-        total += w
-        if k == k_u:
-            mine = w
-    return CURVE_BINS * mine / total
+        total += ws[k]
+    return CURVE_BINS * ws[min(CURVE_BINS - 1, max(0, int(u * CURVE_BINS)))] / total
 
 
 @nb.njit(**_JIT)
@@ -166,15 +171,16 @@ def _curve_point(L, j, p, u1, u2):
     the circle; the density per unit area at the point is f(u) / (2 pi J), J the area element there
     (`curves.tube_point`)."""
     q0, q1, q2, q3 = _control(L, j)
+    ws = _bin_weights(q0, q1, q2, q3, p)
     total = 0.0
     for k in range(CURVE_BINS):
-        total += _bin_weight(q0, q1, q2, q3, k, p)
+        total += ws[k]
     target = u1 * total
     acc = 0.0
     k = CURVE_BINS - 1
     w = 0.0
     for i in range(CURVE_BINS):
-        w = _bin_weight(q0, q1, q2, q3, i, p)
+        w = ws[i]
         if target < acc + w or i == CURVE_BINS - 1:
             k = i
             break
