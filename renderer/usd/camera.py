@@ -99,6 +99,9 @@ def read_camera(prim: Usd.Prim, matrix: np.ndarray, motion: Optional[np.ndarray]
     cam = UsdGeom.Camera(prim)
     g = cam.GetCamera(time)
     unit = Gf.Camera.FOCAL_LENGTH_UNIT                                   # 0.1
+    for name, aperture in (('horizontalAperture', g.horizontalAperture), ('verticalAperture', g.verticalAperture)):
+        if not aperture > 0:                                             # (NaN too) no frustum to conform
+            raise SceneError(f'{path}.{name}: the camera aperture must be positive, not {aperture:g}')
     h, v = conform(g.horizontalAperture, g.verticalAperture, *fit)
     near, far = g.clippingRange.min, g.clippingRange.max
     out = Camera(path=path, matrix=_without_scale(matrix),
@@ -113,22 +116,29 @@ def read_camera(prim: Usd.Prim, matrix: np.ndarray, motion: Optional[np.ndarray]
     if g.fStop > 0 and not settings.disable_depth_of_field and out.projection == 'perspective':
         out.lens_radius = _sane_lens_radius(path, g.focalLength, g.fStop, g.focusDistance, scene_diagonal,
                                             meters_per_unit, warn)
-    _check_finite(out)
+    _check_finite(out, g)
     return out
 
 
-def _check_finite(cam: Camera) -> None:
+def _check_finite(cam: Camera, g: Gf.Camera) -> None:
     """A camera with a NaN/Inf transform or lens value would make every ray NaN (a black image, every
-    sample dropped): refuse it at load time, naming the prim."""
-    values = [cam.matrix, cam.focal_length, cam.horizontal_aperture, cam.vertical_aperture,
-              cam.horizontal_aperture_offset, cam.vertical_aperture_offset, cam.focus_distance,
-              cam.lens_radius, cam.clip_near]
-    if cam.motion is not None:
-        values.append(cam.motion)
-    if not all(np.all(np.isfinite(np.asarray(v, np.float64))) for v in values):
-        raise SceneError(f'{cam.path}: the camera has a non-finite transform or lens parameter (NaN or Inf)')
+    sample dropped): refuse it at load time, naming the prim and the attribute."""
+    authored = [('focalLength', g.focalLength), ('horizontalAperture', g.horizontalAperture),
+                ('verticalAperture', g.verticalAperture), ('horizontalApertureOffset', g.horizontalApertureOffset),
+                ('verticalApertureOffset', g.verticalApertureOffset), ('focusDistance', cam.focus_distance),
+                ('clippingRange', cam.clip_near)]                    # (the last two as read: NaN or <= 0 defaults)
+    for name, value in authored:
+        if not math.isfinite(value):
+            raise SceneError(f'{cam.path}.{name}: {value:g} is not a finite number; the camera cannot be used')
+    moving = [] if cam.motion is None else [cam.motion]
+    if not all(np.all(np.isfinite(np.asarray(m, np.float64))) for m in [cam.matrix, *moving]):
+        raise SceneError(f'{cam.path}: the camera\'s transform (its xformOps or an ancestor\'s) is not finite')
+    derived = [cam.horizontal_aperture, cam.vertical_aperture, cam.lens_radius]
+    if not all(math.isfinite(v) for v in derived):           # finite inputs whose conform or lens overflowed
+        raise SceneError(f'{cam.path}: the camera\'s apertures or lens overflow (horizontalAperture '
+                         f'{g.horizontalAperture:g}, verticalAperture {g.verticalAperture:g}, fStop {g.fStop:g})')
     if cam.projection == 'perspective' and not cam.focal_length > 0:
-        raise SceneError(f'{cam.path}: the camera focal length must be positive, not {cam.focal_length:g}')
+        raise SceneError(f'{cam.path}.focalLength: the camera focal length must be positive, not {g.focalLength:g}')
 
 
 def _sane_lens_radius(path, focal_tenths, fstop, focus, diagonal, mpu, warn) -> float:

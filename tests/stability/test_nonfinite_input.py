@@ -5,6 +5,8 @@
   light is dropped with a reason, or `SceneError` (camera: there is no sensible fallback view); the
   description that reaches the renderer holds only finite numbers, and the image has no NaN/Inf.
 """
+import re
+
 import numpy as np
 import pytest
 from click.testing import CliRunner
@@ -108,13 +110,35 @@ def test_reader_drops_nonfinite_prims(case):
     assert np.all(np.isfinite(img))
 
 
-@pytest.mark.parametrize('corrupt', [
-    lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/cam')).AddRotateYOp().Set(NAN),
-    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFocalLengthAttr(NAN),
-    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateHorizontalApertureAttr(INF),
-], ids=['transform', 'focal length', 'aperture'])
-def test_reader_rejects_a_nonfinite_camera(corrupt):
+@pytest.mark.parametrize('corrupt, message', [
+    (lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/cam')).AddRotateYOp().Set(NAN), "/cam: the camera's transform"),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFocalLengthAttr(NAN), '/cam.focalLength: nan'),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateHorizontalApertureAttr(INF),
+     '/cam.horizontalAperture: inf'),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateHorizontalApertureAttr(NAN),
+     '/cam.horizontalAperture: the camera aperture must be positive, not nan'),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateVerticalApertureOffsetAttr(-INF),
+     '/cam.verticalApertureOffset: -inf'),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFocalLengthAttr(-35.0),
+     '/cam.focalLength: the camera focal length must be positive, not -35'),
+    (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateVerticalApertureAttr(0.0),
+     '/cam.verticalAperture: the camera aperture must be positive, not 0'),
+], ids=['transform', 'focal length', 'aperture', 'NaN aperture', 'aperture offset', 'negative focal length', 'zero aperture'])
+def test_reader_rejects_a_nonfinite_camera(corrupt, message):
+    """The message names the prim and its attribute."""
     st = stage()
     corrupt(st)
-    with pytest.raises(SceneError, match='/cam'):
+    with pytest.raises(SceneError, match=re.escape(message)):
         read_stage(st)
+
+
+@pytest.mark.parametrize('corrupt', [
+    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFStopAttr(INF),
+    lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateFocusDistanceAttr(NAN),
+], ids=['fStop', 'focusDistance'])
+def test_reader_keeps_a_camera_whose_unused_lens_values_are_odd(corrupt):
+    """An infinite fStop is a pinhole, a NaN focusDistance is unset (the default, 1): nothing to refuse."""
+    st = stage()
+    corrupt(st)
+    assert read_stage(st).camera.lens_radius == 0.0
+
