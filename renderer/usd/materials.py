@@ -38,6 +38,26 @@ _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular
                    'emissiveColor': 'emission_texture'}
 
 
+def typed(value, kind: str):
+    """`value` read as `kind` ('float', 'color3', 'float4', 'asset', 'token'), or None where it is not one: an input or
+    attribute authored with another type than its definition's (a string roughness, a float colour), which
+    Storm, asking for the declared type, ignores."""
+    if kind == 'asset':
+        return value if isinstance(value, Sdf.AssetPath) else None
+    if kind == 'token':
+        return value if isinstance(value, str) else None
+    if isinstance(value, (str, Sdf.AssetPath)):
+        return None
+    try:
+        if kind == 'float':
+            return float(value)
+        items = tuple(float(x) for x in value)
+    except (TypeError, ValueError):
+        return None
+    if kind == 'color3':
+        return items if len(items) == 3 else None
+    return items if len(items) == 4 else None
+
 class MaterialTable:
     """Owns `materials` and `textures` of one SceneDescription; hands out indices."""
 
@@ -140,21 +160,24 @@ class MaterialTable:
         return self._preview_surface(path, shader)
 
     def _course(self, prim: Usd.Prim, model: int) -> Material:
-        def get(name, default):
+        def get(name, default, kind):
             attr = prim.GetAttribute(f'rtc:{name}')
-            value = attr.Get(self.time) if attr else None
+            raw = attr.Get(self.time) if attr else None
+            value = None if raw is None else typed(raw, kind)
+            if raw is not None and value is None:
+                self.warn(f'{attr.GetPath()}: a {attr.GetTypeName()} value, not a {kind}; using its default')
             return default if value is None else value
 
         def colour(name, default):
-            return tuple(float(x) for x in get(name, default))
+            return get(name, default, 'color3')
 
         m = Material(path=str(prim.GetPath()), model=model,
                      diffuse=colour('diffuse', (0.0, 0.0, 0.0)), specular=colour('specular', (0.0, 0.0, 0.0)),
-                     exponent=float(get('phongExp', 0.0)), mirror_coef=float(get('mirrorCoef', 0.0)),
-                     roughness=float(get('roughness', 0.0)), ior=float(get('refractiveIndex', 1.5)),
+                     exponent=get('phongExp', 0.0, 'float'), mirror_coef=get('mirrorCoef', 0.0, 'float'),
+                     roughness=get('roughness', 0.0, 'float'), ior=get('refractiveIndex', 1.5, 'float'),
                      attenuation=colour('attenuationCoef', (1.0, 1.0, 1.0)))
         for name, field in (('diffuseTexture', 'diffuse_texture'), ('specularTexture', 'specular_texture')):
-            asset = get(name, None)
+            asset = get(name, None, 'asset')
             if asset is not None and asset.path:
                 setattr(m, field, self.texture(asset, 'auto', 'repeat', 'repeat',
                                                 (1.0,) * 4, (0.0,) * 4, f'{prim.GetPath()}.rtc:{name}'))
@@ -165,12 +188,12 @@ class MaterialTable:
         `usdShaders/shaderDefs.usda`: roughness 0.5, diffuseColor 0.18, ior 1.5, clearcoatRoughness 0.01, ...)."""
         m = Material(path=path, model=PREVIEW_SURFACE, roughness=PREVIEW_ROUGHNESS)
         for name, field, kind in (
-                ('diffuseColor', 'diffuse', 'colour'), ('specularColor', 'specular', 'colour'),
-                ('emissiveColor', 'emission', 'colour'), ('roughness', 'roughness', float),
-                ('metallic', 'metallic', float), ('ior', 'ior', float), ('opacity', 'opacity', float),
-                ('clearcoat', 'clearcoat', float), ('clearcoatRoughness', 'clearcoat_roughness', float),
-                ('useSpecularWorkflow', 'use_specular_workflow', bool)):
-            value, source = self._input(shader, name)
+                ('diffuseColor', 'diffuse', 'color3'), ('specularColor', 'specular', 'color3'),
+                ('emissiveColor', 'emission', 'color3'), ('roughness', 'roughness', 'float'),
+                ('metallic', 'metallic', 'float'), ('ior', 'ior', 'float'), ('opacity', 'opacity', 'float'),
+                ('clearcoat', 'clearcoat', 'float'), ('clearcoatRoughness', 'clearcoat_roughness', 'float'),
+                ('useSpecularWorkflow', 'use_specular_workflow', 'float')):
+            value, source = self._input(shader, name, kind)
             if source is not None:
                 if name in _TEXTURE_FIELDS and source.GetShaderId() == 'UsdUVTexture':
                     index, fallback = self._uv_texture(source)
@@ -183,34 +206,36 @@ class MaterialTable:
                     self.warn(f'{path}: inputs:{name} is driven by {source.GetShaderId() or "a shader"} '
                               f'({source.GetPath()}), which is not supported; using its default')
                 continue
-            if value is None:
-                continue
-            if kind == 'colour':
-                setattr(m, field, tuple(float(x) for x in value))
-            else:
-                setattr(m, field, kind(value))
+            if value is not None:
+                setattr(m, field, bool(value) if field == 'use_specular_workflow' else value)
         return m
 
-    def _input(self, shader: UsdShade.Shader, name: str):
-        """(constant value, None) or (None, source shader) for a shader input, following
-        connections through material interface inputs; (None, None) when unauthored."""
+    def _input(self, shader: UsdShade.Shader, name: str, kind: str):
+        """(constant value as `kind`, None) or (None, source shader) for a shader input, following
+        connections through material interface inputs; (None, None) when unauthored, or when its value is
+        not a `kind` (`typed`: warned, the input's default used)."""
         inp = shader.GetInput(name)
         if not inp:
             return None, None
         for attr in inp.GetValueProducingAttributes():
             if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
                 return None, UsdShade.Shader(attr.GetPrim())
-            return attr.Get(self.time), None
+            raw = attr.Get(self.time)
+            value = None if raw is None else typed(raw, kind)
+            if raw is not None and value is None:
+                self.warn(f'{attr.GetPath()}: a {attr.GetTypeName()} value where {shader.GetShaderId() or "the shader"} '
+                          f'declares {kind}; using its default')
+            return value, None
         return None, None
 
     # ------------------------------------------------------------------ textures
     def _uv_texture(self, tex: UsdShade.Shader) -> tuple[int, tuple]:
         """(texture index or -1, constant colour to use when the file cannot be read)."""
-        def value(name, default):
-            v, _ = self._input(tex, name)
+        def value(name, default, kind='token'):
+            v, _ = self._input(tex, name, kind)
             return default if v is None else v
-        fallback = tuple(float(x) for x in value('fallback', (0.0, 0.0, 0.0, 1.0)))[:3]
-        asset = value('file', None)
+        fallback = value('fallback', (0.0, 0.0, 0.0, 1.0), 'float4')[:3]
+        asset = value('file', None, 'asset')
         if asset is None or not asset.path:
             self.warn(f'{tex.GetPath()}: UsdUVTexture without inputs:file; using its fallback')
             return -1, fallback
@@ -219,8 +244,8 @@ class MaterialTable:
             w = str(value(name, 'useMetadata'))
             wraps.append(w if w in _WRAPS else 'repeat')
         index = self.texture(asset, str(value('sourceColorSpace', 'auto')), *wraps,
-                              tuple(float(x) for x in value('scale', (1.0,) * 4)),
-                              tuple(float(x) for x in value('bias', (0.0,) * 4)), str(tex.GetPath()))
+                              value('scale', (1.0,) * 4, 'float4'), value('bias', (0.0,) * 4, 'float4'),
+                              str(tex.GetPath()))
         return index, fallback
 
     def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,

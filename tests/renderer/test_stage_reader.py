@@ -713,6 +713,43 @@ def test_malformed_attribute_values_skip_the_prim(tmp_path):
                                     '/World/S: unreadable Sphere (radius is a string, the schema says double)']
 
 
+
+def test_mistyped_shader_inputs_keep_their_defaults(tmp_path):
+    """An input authored with another type than its definition's is ignored (its default used, as Storm, which
+    asks for the declared type, does), warned with its name; the well-typed inputs beside it are kept."""
+    path = tmp_path / 'inputs.usda'
+    path.write_text('#usda 1.0\ndef Xform "World" {\n'
+                    '    def Sphere "S" (prepend apiSchemas = ["MaterialBindingAPI"]) {\n'
+                    '        rel material:binding = </World/M>\n    }\n'
+                    '    def Material "M" {\n        token outputs:surface.connect = </World/M/P.outputs:surface>\n'
+                    '        def Shader "P" {\n            uniform token info:id = "UsdPreviewSurface"\n'
+                    '            string inputs:roughness = "bogus"\n            float2 inputs:diffuseColor = (0.3, 0.4)\n'
+                    '            float inputs:metallic = 0.25\n            color3f inputs:emissiveColor = (1, 2, 3)\n'
+                    '            token outputs:surface\n        }\n'
+                    '        def Shader "T" {\n            uniform token info:id = "UsdUVTexture"\n'
+                    '            float inputs:file = 2\n            string inputs:scale = "x"\n'
+                    '            float3 inputs:fallback = (0.5, 0.5, 0.5)\n            float3 outputs:rgb\n        }\n'
+                    '    }\n'
+                    '    def Material "C" {\n        token rtc:model = "blinnPhong"\n'
+                    '        string rtc:phongExp = "sixty"\n        color3f rtc:diffuse = (0.1, 0.2, 0.3)\n    }\n'
+                    '    def Sphere "K" (prepend apiSchemas = ["MaterialBindingAPI"]) {\n'
+                    '        rel material:binding = </World/C>\n    }\n}\n')
+    stage = Usd.Stage.Open(str(path))
+    shader = UsdShade.Shader(stage.GetPrimAtPath('/World/M/P'))
+    shader.CreateInput('specularColor', Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        UsdShade.Shader(stage.GetPrimAtPath('/World/M/T')).ConnectableAPI(), 'rgb')
+    desc = read_stage(stage)
+    preview = next(m for m in desc.materials if m.path == '/World/M')
+    assert (preview.roughness, preview.diffuse, preview.metallic, preview.emission) == \
+        (0.5, (0.18, 0.18, 0.18), 0.25, (1.0, 2.0, 3.0))
+    assert preview.specular_texture < 0 and preview.specular == (0.0, 0.0, 0.0)     # no file: the (float4) default
+    course = next(m for m in desc.materials if m.path == '/World/C')
+    assert course.exponent == 0.0 and course.diffuse == pytest.approx((0.1, 0.2, 0.3))
+    for name, kind in (('/World/M/P.inputs:roughness', 'float'), ('/World/M/P.inputs:diffuseColor', 'color3'),
+                       ('/World/M/T.inputs:file', 'asset'), ('/World/M/T.inputs:fallback', 'float4'),
+                       ('/World/C.rtc:phongExp', 'float')):
+        assert any(w.startswith(name) and kind in w for w in desc.warnings), (name, desc.warnings)
+
 def _maya_cube(stage, path):
     """A unit cube as six quads, written the way Arnold's Maya exports write their normals:
     faceVarying, indexed, with an element size of 4 (one element per quad) that usd-core cannot
