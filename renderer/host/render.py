@@ -91,7 +91,8 @@ class Renderer:
         self._pool = None
         self._scratch = {}                 # integrator -> one `Scratch` per render thread
         self.desc = desc
-        self.built = build(desc, threads=threads, reuse=reuse.built if reuse is not None else None)
+        with np.errstate(all='ignore'):      # values past float32 (a radius of 1e300) turn inf, as Embree's would
+            self.built = build(desc, threads=threads, reuse=reuse.built if reuse is not None else None)
         if reuse is not None:
             reuse.close()
         self.build_seconds = _time.perf_counter() - t0
@@ -112,9 +113,10 @@ class Renderer:
         if self._lights is None:
             d = self.built.data
             group = len(self.built.top.groups)
-            lights, shapes = path_lights(self.desc, d.li_f, self.built.top.bounds(), group, data=d,
-                                         shadow_packets=self.shadow_packets)
-            self._path_top, base, direct = path_top(self.built, self.desc.containers, shapes, group)
+            with np.errstate(all='ignore'):  # (as in `build`: values past float32 turn inf)
+                lights, shapes = path_lights(self.desc, d.li_f, self.built.top.bounds(), group, data=d,
+                                             shadow_packets=self.shadow_packets)
+                self._path_top, base, direct = path_top(self.built, self.desc.containers, shapes, group)
             self._lights = lights._replace(direct_base=base, direct=direct)
         return self._lights
 

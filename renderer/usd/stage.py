@@ -58,7 +58,8 @@ def read_stage(source: Union[str, os.PathLike, Usd.Stage], *, time: Optional[flo
         stage, label = _open(source)
         if geometry is not None:
             geometry.use(stage)
-        desc = _Reader(stage, label, time, camera_path, options, geometry).read()
+        with np.errstate(all='ignore'):        # odd values are found by explicit checks (named, warned or refused)
+            desc = _Reader(stage, label, time, camera_path, options, geometry).read()
     except Tf.ErrorException as exc:
         raise SceneError(f'{label}: {_first_line(exc)}') from None
     notes = [d.commentary for d in delegate.TakeUncoalescedDiagnostics()]

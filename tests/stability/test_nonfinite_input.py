@@ -6,6 +6,7 @@
   description that reaches the renderer holds only finite numbers, and the image has no NaN/Inf.
 """
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -142,3 +143,23 @@ def test_reader_keeps_a_camera_whose_unused_lens_values_are_odd(corrupt):
     corrupt(st)
     assert read_stage(st).camera.lens_radius == 0.0
 
+
+@pytest.mark.parametrize('integrator', ['path', 'cook'])
+def test_values_past_float32_render_without_numpy_warnings(tmp_path, integrator):
+    """Finite values whose products pass float32's range (a radius of 1e300, a light of intensity 3e38 and width
+    1e30) render, and numpy's overflow warnings (Python's own text) do not reach the user."""
+    st = stage()
+    UsdGeom.Sphere.Define(st, '/huge').CreateRadiusAttr(1e300)
+    UsdGeom.Xformable(st.GetPrimAtPath('/huge')).AddTranslateOp().Set(Gf.Vec3d(0, 0, -1e301))
+    rect = UsdLux.RectLight.Define(st, '/bright')
+    rect.CreateIntensityAttr(3e38)
+    rect.CreateWidthAttr(1e30)
+    UsdGeom.Xformable(rect).AddTranslateOp().Set(Gf.Vec3d(0, 5, 0))
+    st.GetRootLayer().Export(str(tmp_path / 'huge.usda'))
+    with warnings.catch_warnings():
+        warnings.filterwarnings('error', message='.*encountered in', category=RuntimeWarning)
+        result = CliRunner().invoke(main, ['render', str(tmp_path / 'huge.usda'), '-o', str(tmp_path / 'out.png'),
+                                           '--width', '16', '--height', '12', '--spp', '2', '--integrator', integrator],
+                                    catch_exceptions=False)
+    assert result.exit_code == 0 and (tmp_path / 'out.png').stat().st_size > 0, result.output
+    assert 'RuntimeWarning' not in result.output
