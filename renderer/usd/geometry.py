@@ -120,7 +120,7 @@ def flattened(pv: UsdGeom.Primvar, time, warn: Warn, consequence: str):
         values = pv.ComputeFlattened(time)
     except Tf.ErrorException:
         values = None
-    if values is None or not hasattr(values, '__len__'):
+    if values is None or not hasattr(values, '__len__') or isinstance(values, str):    # (authored as a string)
         raw = pv.Get(time)
         count = len(raw) if hasattr(raw, '__len__') else 0
         if pv.IsIndexed():

@@ -750,6 +750,22 @@ def test_mistyped_shader_inputs_keep_their_defaults(tmp_path):
                        ('/World/C.rtc:phongExp', 'float')):
         assert any(w.startswith(name) and kind in w for w in desc.warnings), (name, desc.warnings)
 
+
+@pytest.mark.parametrize('declared', ['string primvars:displayColor = "x"',
+                                      'token primvars:displayColor = "red" (interpolation = "vertex")',
+                                      'color3f primvars:displayColor = (1, 0, 0)'])
+def test_a_display_color_that_is_not_an_array_is_grey(tmp_path, declared):
+    """primvars:displayColor declared as something other than an array of colours: the gprim is drawn grey, warned
+    (was a ValueError traceback)."""
+    path = tmp_path / 'colour.usda'
+    path.write_text('#usda 1.0\ndef Mesh "M" {\n    int[] faceVertexCounts = [3]\n    int[] faceVertexIndices = '
+                    f'[0, 1, 2]\n    point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]\n    {declared}\n}}\n')
+    desc = read_stage(path)
+    assert [m.diffuse for m in desc.materials] == [(0.18, 0.18, 0.18)]
+    assert any(w.startswith('/M: primvars:displayColor') and 'grey used instead' in w for w in desc.warnings), \
+        desc.warnings
+
+
 def _maya_cube(stage, path):
     """A unit cube as six quads, written the way Arnold's Maya exports write their normals:
     faceVarying, indexed, with an element size of 4 (one element per quad) that usd-core cannot
