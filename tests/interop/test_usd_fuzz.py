@@ -1,0 +1,102 @@
+"""Fuzzing the stage reader: valid USD with odd values renders, or fails cleanly.
+
+Sources: the USD corpus (shared/corpus/usd: Pixar's test files and other tools'; below 200 kB, usdz aside) and
+the product's gallery (scenes/*.usda).  Each case mutates a source's root layer (`usd_mutations.mutate`: odd
+values of an attribute's own type, blocked values, time samples, retyped prims, deactivated prims, flipped
+instancing, retargeted relationships and connections, bad xformOpOrders, schema attributes of the wrong type),
+writes it as a new layer beside the source's own files (in a mirror of the tree made of symlinks, so its references, sublayers
+and textures resolve as before) and renders it in-process through `rtc render`'s click command at 8 x 6, 1 spp,
+with either integrator (`catch_exceptions=False`: any exception fails the test with the mutations that caused
+it).  The outcome must be exit 0 with the image, or exit 2 with rtc's own message naming the file or a prim of
+the stage, no traceback and no image.
+
+Default run: 150 cases; `-m slow`: 5,000.  Deterministic (derandomized).
+"""
+from __future__ import annotations
+
+import itertools
+import os
+from pathlib import Path
+
+import pytest
+from click.testing import CliRunner
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+from pxr import Sdf, Usd
+
+from rtc.cli import main
+
+from tests.interop.interop_helpers import REPO, USD_CORPUS
+from tests.interop.usd_mutations import mutate
+
+ROOTS = {'corpus': USD_CORPUS, 'scenes': REPO / 'scenes'}
+SOURCES = sorted((name, str(p.relative_to(root))) for name, root in ROOTS.items() if root.is_dir()
+                 for p in root.rglob('*.usd*') if p.suffix in ('.usd', '.usda', '.usdc') and p.stat().st_size < 200_000)
+
+
+_NUMBERS = itertools.count()
+
+
+@pytest.fixture(scope='module')
+def mirror(tmp_path_factory) -> Path:
+    """A copy of each source tree whose directories are real and whose files are symlinks to the sources'."""
+    if not SOURCES:
+        pytest.skip('no USD sources')
+    top = tmp_path_factory.mktemp('usd_fuzz')
+    for name, root in ROOTS.items():
+        for directory, _, files in os.walk(root):
+            here = top / name / Path(directory).relative_to(root)
+            here.mkdir(parents=True, exist_ok=True)
+            for f in files:
+                os.symlink(Path(directory) / f, here / f)
+    return top
+
+
+def check_outcome(mirror: Path, source: tuple[str, str], rng, integrator: str):
+    path = mirror / source[0] / source[1]
+    mutant = path.parent / f'_mutant{next(_NUMBERS)}.usda'       # a new layer each case: the source's is not edited
+    layer = Sdf.Layer.CreateNew(str(mutant))
+    layer.TransferContent(Sdf.Layer.FindOrOpen(str(path)))
+    stage = Usd.Stage.Open(layer)
+    log = mutate(rng, stage, rng.randint(1, 3))
+    out = mirror / '_mutant.png'
+    layer.Save()
+    prims = {str(p.GetPath()) for p in stage.Traverse(Usd.PrimAllPrimsPredicate)}
+    what = '\n'.join([f'{source[1]}, {integrator}:', *log])
+    try:
+        try:
+            result = CliRunner().invoke(main, ['render', str(mutant), '-o', str(out), '--width', '8', '--height',
+                                               '6', '--spp', '1', '--integrator', integrator], catch_exceptions=False)
+        except Exception as exc:
+            raise AssertionError(f'{what}\nraised {type(exc).__name__}: {exc}') from exc
+        if result.exit_code == 0:
+            assert out.stat().st_size > 0, what
+        else:
+            assert result.exit_code == 2, (what, result.exit_code, result.output)
+            message = result.output
+            assert 'rtc: error:' in message and 'Traceback' not in message, (what, message)
+            assert 'cannot open' not in message, (what, message)          # the mutant is valid USD
+            assert mutant.name in message or any(p in message for p in prims if p != '/'), (what, message)
+            assert not out.exists(), what
+    finally:
+        mutant.unlink(missing_ok=True)
+        out.unlink(missing_ok=True)
+
+
+CASES = settings(max_examples=150, deadline=None, derandomize=True, database=None,
+                 suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow])
+
+
+@CASES
+@given(source=st.sampled_from(SOURCES or [('', '')]), rng=st.randoms(use_true_random=False),
+       integrator=st.sampled_from(['path', 'cook']))
+def test_odd_values_render_or_fail_cleanly(mirror, source, rng, integrator):
+    check_outcome(mirror, source, rng, integrator)
+
+
+@pytest.mark.slow
+@settings(CASES, max_examples=5000)
+@given(source=st.sampled_from(SOURCES or [('', '')]), rng=st.randoms(use_true_random=False),
+       integrator=st.sampled_from(['path', 'cook']))
+def test_odd_values_render_or_fail_cleanly_5000(mirror, source, rng, integrator):
+    check_outcome(mirror, source, rng, integrator)
