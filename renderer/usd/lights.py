@@ -165,7 +165,9 @@ def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Op
 def _base(api: UsdLux.LightAPI, time: Usd.TimeCode) -> np.ndarray:
     """color * intensity * 2**exposure (times the blackbody colour when enableColorTemperature)."""
     colour = np.array(api.GetColorAttr().Get(time), np.float64)
-    base = colour * float(api.GetIntensityAttr().Get(time)) * 2.0 ** float(api.GetExposureAttr().Get(time))
+    exposure = float(api.GetExposureAttr().Get(time))
+    gain = 2.0 ** exposure if exposure < 1024.0 else math.inf       # (past float64: inf, refused as non-finite)
+    base = colour * float(api.GetIntensityAttr().Get(time)) * gain
     if api.GetEnableColorTemperatureAttr().Get(time):
         base = base * np.array(UsdLux.BlackbodyTemperatureAsRgb(api.GetColorTemperatureAttr().Get(time)))
     return base

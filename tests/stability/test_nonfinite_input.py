@@ -75,6 +75,8 @@ DROPPED = {   # corruption -> the prim that must disappear from the description
         Gf.Vec3f(INF, 1, 1))),
     'light intensity': ('/l', lambda st: UsdLux.SphereLight(st.GetPrimAtPath('/l')).GetIntensityAttr().Set(NAN)),
     'light transform': ('/l', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/l')).AddRotateXOp().Set(NAN)),
+    'light exposure past float64': ('/l', lambda st: UsdLux.SphereLight(st.GetPrimAtPath('/l')).CreateExposureAttr(
+        1e38)),                                                       # (2 ** 1e38 was an OverflowError)
 }
 
 
