@@ -1,7 +1,7 @@
 """Semantic mutations of a USD stage for fuzzing the stage reader: the file stays valid USD, its values turn odd.
 
 Each mutation is authored on the stage's root layer (an opinion over whatever the stage composes), chosen by a
-`random.Random` (hypothesis hands one to the tests, derandomized):
+`random.Random` (the tests seed one per case):
 
 * a value: an attribute of a prim set to an odd value of its own type (NaN, Inf, 1e38, -1, 0 in a component;
   for arrays: empty, one element, doubled, truncated, one element poisoned), at the default time or as a time
