@@ -58,6 +58,7 @@ def typed(value, kind: str):
         return items if len(items) == 3 else None
     return items if len(items) == 4 else None
 
+
 class MaterialTable:
     """Owns `materials` and `textures` of one SceneDescription; hands out indices."""
 
@@ -223,8 +224,9 @@ class MaterialTable:
             raw = attr.Get(self.time)
             value = None if raw is None else typed(raw, kind)
             if raw is not None and value is None:
-                self.warn(f'{attr.GetPath()}: a {attr.GetTypeName()} value where {shader.GetShaderId() or "the shader"} '
-                          f'declares {kind}; using its default')
+                declarer = shader.GetShaderId() or 'the shader'
+                self.warn(f'{attr.GetPath()}: a {attr.GetTypeName()} value where {declarer} declares {kind}; '
+                          'using its default')
             return value, None
         return None, None
 

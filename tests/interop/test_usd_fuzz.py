@@ -1,14 +1,14 @@
 """Fuzzing the stage reader: valid USD with odd values renders, or fails cleanly.
 
-Sources: the USD corpus (shared/corpus/usd: Pixar's test files and other tools'; below 200 kB, usdz aside) and
-the product's gallery (scenes/*.usda).  Each case mutates a source's root layer (`usd_mutations.mutate`: odd
-values of an attribute's own type, blocked values, time samples, retyped prims, deactivated prims, flipped
-instancing, retargeted relationships and connections, bad xformOpOrders, schema attributes of the wrong type),
-writes it as a new layer beside the source's own files (in a mirror of the tree made of symlinks, so its references, sublayers
-and textures resolve as before) and renders it in-process through `rtc render`'s click command at 8 x 6, 1 spp,
-with either integrator (`catch_exceptions=False`: any exception fails the test with the mutations that caused
-it).  The outcome must be exit 0 with the image, or exit 2 with rtc's own message naming the file or a prim of
-the stage, no traceback and no image.
+Sources: the USD corpus (shared/corpus/usd: Pixar's test files and other tools'; below 200 kB, usdz aside) and the
+product's gallery (scenes/*.usda). Each case mutates a source's root layer (`usd_mutations.mutate`: odd values of an
+attribute's own type, blocked values, time samples, retyped prims, deactivated prims, flipped instancing, retargeted
+relationships and connections, bad xformOpOrders, schema attributes of the wrong type), writes it as a new layer
+beside the source's own files (in a mirror of the tree made of symlinks, so its references, sublayers and textures
+resolve as before) and renders it in-process through `rtc render`'s click command at 8 x 6, 1 spp, with either
+integrator (`catch_exceptions=False`: any exception fails the test with the mutations that caused it). The outcome
+must be exit 0 with the image, or exit 2 with rtc's own message naming the file or a prim of the stage, no traceback
+and no image.
 
 Cases are drawn by `random.Random(seed)` (hypothesis' draws favour the simplest values, and a fuzzer wants the
 others too): 200 seeds by default (about 15 s once the kernels are loaded), 5,000 more with `-m slow`.

@@ -126,7 +126,8 @@ def test_reader_drops_nonfinite_prims(case):
      '/cam.focalLength: the camera focal length must be positive, not -35'),
     (lambda st: UsdGeom.Camera(st.GetPrimAtPath('/cam')).CreateVerticalApertureAttr(0.0),
      '/cam.verticalAperture: the camera aperture must be positive, not 0'),
-], ids=['transform', 'focal length', 'aperture', 'NaN aperture', 'aperture offset', 'negative focal length', 'zero aperture'])
+], ids=['transform', 'focal length', 'aperture', 'NaN aperture', 'aperture offset', 'negative focal length',
+        'zero aperture'])
 def test_reader_rejects_a_nonfinite_camera(corrupt, message):
     """The message names the prim and its attribute."""
     st = stage()
