@@ -157,14 +157,14 @@ def _bin_weights(q0, q1, q2, q3, p):
 @nb.njit(**_JIT)
 def _bin_density(q0, q1, q2, q3, p, u):
     """The density in u at u of `_curve_point`'s draw seen from p (piecewise constant over CURVE_BINS bins)."""
-    ws = _bin_weights(q0, q1, q2, q3, p)
-    k_u = min(CURVE_BINS - 1, max(0, int(u * CURVE_BINS)))
     total = 0.0
     mine = 0.0
-    for k in range(CURVE_BINS):                      # (no tuple index computed from u: a NaN u indexes nothing)
-        total += ws[k]
+    k_u = min(CURVE_BINS - 1, max(0, int(u * CURVE_BINS)))
+    for k in range(CURVE_BINS):
+        w = _bin_weight(q0, q1, q2, q3, k, p)
+        total += w
         if k == k_u:
-            mine = ws[k]
+            mine = w
     return CURVE_BINS * mine / total
 
 
