@@ -23,6 +23,8 @@ from typing import Optional
 
 import numpy as np
 
+FLOAT32_MAX = float(np.finfo(np.float32).max)     # Embree traces in float32: coordinates past it are inf
+
 
 # --------------------------------------------------------------------------- geometry
 @dataclass
@@ -38,6 +40,10 @@ class Mesh:
                                            # over the mesh (a material with vertex_colors multiplies its diffuse)
     material: int = -1                 # default material index (binding inside the container), -1 = none
     double_sided: bool = True
+
+    def reach(self) -> float:
+        """The largest magnitude of a coordinate of the mesh in container space."""
+        return float(np.abs(self.points).max(initial=0.0))
 
 
 @dataclass
@@ -68,6 +74,13 @@ class Sphere:
         m = self.matrix
         return np.column_stack([b[:, :3] @ m[:3, :3].T + m[:3, 3], b[:, 3] * scale])
 
+    def reach(self) -> float:
+        """A bound of the largest magnitude of a coordinate of the sphere(s) in container space: |M p| <= |M|
+        |p| in the max norm, for the points p of the balls (|p| <= |centre| + radius)."""
+        b = np.abs(self.balls())
+        m = np.abs(self.matrix[:3])
+        return float(m[:, 3].max() + m[:, :3].sum(1).max() * (b[:, :3].max(1) + b[:, 3]).max())
+
 
 @dataclass
 class Curves:
@@ -87,6 +100,10 @@ class Curves:
     def segment_rows(self) -> np.ndarray:
         """float64 (k, 4, 4): each segment's control points (a linear one's two ends, then its end again)."""
         return segment_rows(self.vertices, self.segments, self.linear)
+
+    def reach(self) -> float:
+        """The largest magnitude of a control point's coordinate or radius, in container space."""
+        return float(np.abs(self.vertices).max(initial=0.0))
 
 
 def segment_rows(vertices: np.ndarray, segments: np.ndarray, linear: bool) -> np.ndarray:

@@ -1,21 +1,20 @@
 """UsdGeom gprims -> `Mesh` / `Sphere` / `Curves` records in their container's space (UsdGeom.Points: a `Sphere`
 record of many spheres; UsdGeom.BasisCurves: `curves.py`).
 
-Every converter receives the gprim-to-container matrix (float64 4x4, column vectors) and bakes
-it: points are transformed, normals use the inverse transpose, and triangles are re-wound so
-that they are counter-clockwise seen from the outside after `orientation = "leftHanded"` and
-after a mirroring (negative-determinant) transform (the two cancel).  Spheres stay analytic and
-keep the matrix.
+Every converter receives the gprim-to-container matrix (float64 4x4, column vectors) and bakes it: points are
+transformed, normals use the inverse transpose, and triangles are re-wound so that they are counter-clockwise seen
+from the outside after `orientation = "leftHanded"` and after a mirroring (negative-determinant) transform (the two
+cancel). Spheres stay analytic and keep the matrix.
 
-Shading normals: authored ``primvars:normals`` (preferred, as in UsdGeom) or ``normals`` with any
-interpolation, indexed or not.  Without authored normals a polygonal mesh (subdivisionScheme
-``none`` or ``bilinear``) gets ``normals=None`` (the integrator uses the flat geometric normal);
-a subdivision surface (``catmullClark``, ``loop``, the schema fallback) is not subdivided but gets
-smooth area-weighted vertex normals, which is what its limit surface looks like from afar.
+Shading normals: authored ``primvars:normals`` (preferred, as in UsdGeom) or ``normals`` with any interpolation,
+indexed or not. Without authored normals a polygonal mesh (subdivisionScheme ``none`` or ``bilinear``) gets
+``normals=None`` (the integrator uses the flat geometric normal); a subdivision surface (``catmullClark``, ``loop``,
+the schema fallback) is not subdivided but gets smooth area-weighted vertex normals, which is what its limit surface
+looks like from afar.
 
-Quadrics (Cube, Cylinder, Cone, Capsule, Plane and their ``_1`` variants) are tessellated in
-gprim space with exact per-corner normals (flat for cube faces and caps, smooth around the
-axis) and simple UVs, then go through the same path as meshes.
+Quadrics (Cube, Cylinder, Cone, Capsule, Plane and their ``_1`` variants) are tessellated in gprim space with exact
+per-corner normals (flat for cube faces and caps, smooth around the axis) and simple UVs, then go through the same
+path as meshes.
 
 A `materialBind` GeomSubset family splits a mesh into several `Mesh` records whose ``path`` is
 the subset's path, so the reader resolves each part's binding on the subset prim.
@@ -27,7 +26,7 @@ from typing import Callable
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom
 
-from ..description import Mesh, Sphere
+from ..description import FLOAT32_MAX, Mesh, Sphere
 
 Warn = Callable[[str], None]
 SEGMENTS = 48            # tessellation of quadrics around their axis
@@ -48,15 +47,17 @@ def converter_for(type_name: str):
 
 def convert_gprim(prim: Usd.Prim, to_container: np.ndarray, time: Usd.TimeCode, warn: Warn, posed=None) -> list:
     """Mesh/Sphere/Curves records for one gprim; `posed`: the points of a point-based gprim posed by its skeleton
-    (`skinning.posed_points`), read in place of its own.  Raises GeometryError (or KeyError for an unknown
-    type, which callers prevent by asking `converter_for` first)."""
+    (`skinning.posed_points`), read in place of its own.  Raises GeometryError (also for coordinates past float32's
+    range, where Embree traces), or KeyError for an unknown type (callers ask `converter_for` first)."""
     if not np.all(np.isfinite(to_container)):
         raise GeometryError(f'{prim.GetPath()}: non-finite transform')
     if abs(np.linalg.det(to_container[:3, :3])) < 1e-300:
         raise GeometryError(f'{prim.GetPath()}: singular transform')
-    if posed is not None and implicit_type(prim) in _POSABLE:
-        return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn, posed)
-    return _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn)
+    extra = (posed,) if posed is not None and implicit_type(prim) in _POSABLE else ()
+    records = _CONVERTERS[implicit_type(prim)](prim, to_container, time, warn, *extra)
+    if not (reach := max([r.reach() for r in records], default=0.0)) <= FLOAT32_MAX:
+        raise GeometryError(f'{prim.GetPath()}: coordinates up to {reach:.3g} in its container, past float32\'s range')
+    return records
 
 
 def implicit_type(prim: Usd.Prim) -> str:
@@ -595,6 +596,5 @@ _CONVERTERS = {
 }
 # point-based gprims whose converters read points posed by a skeleton in place of their own
 _POSABLE = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch')
-# gprims whose records keep a displayColor that varies over them (as read: a course sphere written as a Mesh is a
-# Sphere, which keeps one colour)
+# gprims whose records keep a displayColor that varies over them (a course sphere written as a Mesh: a Sphere)
 VARYING_COLOUR_TYPES = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch', 'Cube')

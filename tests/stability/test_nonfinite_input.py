@@ -77,6 +77,14 @@ DROPPED = {   # corruption -> the prim that must disappear from the description
     'light transform': ('/l', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/l')).AddRotateXOp().Set(NAN)),
     'light exposure past float64': ('/l', lambda st: UsdLux.SphereLight(st.GetPrimAtPath('/l')).CreateExposureAttr(
         1e38)),                                                       # (2 ** 1e38 was an OverflowError)
+    # finite, but past float32's range, in which Embree traces (inf there): refused by name, not drawn as Embree takes it
+    'mesh point past float32': ('/m', lambda st: UsdGeom.Mesh(st.GetPrimAtPath('/m')).GetPointsAttr().Set(
+        [(-3, -1, -3), (1e39, -1, -3), (3, -1, 3), (-3, -1, 3)])),
+    'mesh scaled past float32': ('/m', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/m')).AddScaleOp(
+        UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(1e300, 1, 1))),
+    'sphere radius past float32': ('/s', lambda st: UsdGeom.Sphere(st.GetPrimAtPath('/s')).GetRadiusAttr().Set(1e300)),
+    'sphere placed past float32': ('/s', lambda st: UsdGeom.Xformable(st.GetPrimAtPath('/s')).AddTranslateOp().Set(
+        Gf.Vec3d(0, 0, -1e301))),
 }
 
 
@@ -111,6 +119,50 @@ def test_reader_drops_nonfinite_prims(case):
     assert np.all(np.isfinite(numbers(desc)))
     img = render(desc, RenderOptions(width=24, height=16, spp=2)).image
     assert np.all(np.isfinite(img))
+
+
+def test_points_and_curves_past_float32_are_refused_by_name():
+    """A cloud and a curve whose coordinates pass float32's range are left out, each named with the reason; the
+    same prims at 1e37 (within it) are kept."""
+    def read(scale):                 # (a scale op in double: point3f values past float32 are inf already)
+        st = stage()
+        pts = UsdGeom.Points.Define(st, '/cloud')
+        pts.CreatePointsAttr([(0, 0, 0), (1e9, 0, 0)])
+        pts.CreateWidthsAttr([1.0, 1.0])
+        curve = UsdGeom.BasisCurves.Define(st, '/hair')
+        curve.CreateTypeAttr('linear')
+        curve.CreateCurveVertexCountsAttr([2])
+        curve.CreatePointsAttr([(0, 0, 0), (0, 1e9, 0)])
+        for gprim in (pts, curve):
+            gprim.AddScaleOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(scale / 1e9, scale / 1e9, scale / 1e9))
+        return read_stage(st)
+    kept = read(1e37)
+    assert {'/cloud', '/hair'} <= paths(kept)
+    desc = read(1e39)
+    assert not {'/cloud', '/hair'} & paths(desc)
+    for path in ['/cloud', '/hair']:
+        assert any(s.startswith(f'{path}: coordinates up to 1e+39') and "past float32's range" in s
+                   for s in desc.skipped), desc.skipped
+
+
+def test_a_spheres_reach_bounds_its_surface():
+    """`Sphere.reach`, a bound of the largest coordinate in container space, holds for points of the surface under
+    a sheared, scaled and moved matrix, and is attained within the norm inequality's slack (the bound is tight for
+    an axis-aligned sphere)."""
+    from rtc.renderer.description import Sphere
+    rng = np.random.default_rng(3)
+    m = np.eye(4)
+    m[:3, :3] = rng.normal(size=(3, 3)) * 4.0
+    m[:3, 3] = (5.0, -7.0, 2.0)
+    s = Sphere('/s', 2.0, m, centers=np.array([[1.0, 2.0, -3.0], [0.0, 0.0, 0.0]]), radii=np.array([0.5, 2.0]))
+    n = rng.normal(size=(20000, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    surface = np.concatenate([c + r * n for c, r in zip(s.centers, s.radii)])
+    placed = surface @ m[:3, :3].T + m[:3, 3]
+    assert np.abs(placed).max() <= s.reach()
+    lone = Sphere('/t', 3.0, np.diag([2.0, 1.0, 1.0, 1.0]))
+    lone.matrix[:3, 3] = (1.0, 0.0, 0.0)
+    assert lone.reach() == 7.0                                       # |1 + 2 x 3|: the sphere reaches x = 7
 
 
 @pytest.mark.parametrize('corrupt, message', [
