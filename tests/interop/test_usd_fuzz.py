@@ -24,11 +24,13 @@ import os
 import random
 from pathlib import Path
 
+import numpy as np
 import pytest
 from click.testing import CliRunner
 from pxr import Sdf, Usd
 
 from rtc.cli import main
+from rtc.renderer.images import read_pixels
 
 from tests.interop.interop_helpers import REPO, USD_CORPUS
 from tests.interop.usd_mutations import mutate
@@ -63,7 +65,7 @@ def check_outcome(mirror: Path, source: tuple[str, str], rng, integrator: str):
     layer.TransferContent(Sdf.Layer.FindOrOpen(str(path)))
     stage = Usd.Stage.Open(layer)
     log = mutate(rng, stage, rng.randint(1, 3))
-    out = mirror / '_mutant.png'
+    out = mirror / '_mutant.exr'                       # float: a NaN would show
     layer.Save()
     prims = {str(p.GetPath()) for p in stage.Traverse(Usd.PrimAllPrimsPredicate)}
     what = '\n'.join([f'{source[1]}, {integrator}:', *log])
@@ -74,7 +76,8 @@ def check_outcome(mirror: Path, source: tuple[str, str], rng, integrator: str):
         except Exception as exc:
             raise AssertionError(f'{what}\nraised {type(exc).__name__}: {exc}') from exc
         if result.exit_code == 0:
-            assert out.stat().st_size > 0, what
+            pixels, _ = read_pixels(out)
+            assert pixels.shape[:2] == (6, 8) and not np.isnan(pixels).any(), (what, pixels)
         else:
             assert result.exit_code == 2, (what, result.exit_code, result.output)
             message = result.output
