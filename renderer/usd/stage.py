@@ -26,7 +26,7 @@ from typing import Optional, Union
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
 
-from ..description import (Container, Curves, Instances, Light, Mesh, SceneDescription, Sphere)
+from ..description import (FLOAT32_MAX, Container, Curves, Instances, Light, Mesh, SceneDescription, Sphere)
 from ..errors import SceneError
 from ..options import RenderOptions, resolve
 from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
@@ -232,10 +232,10 @@ class _Reader:
             matrices = np.concatenate(acc.matrices)
             purpose, maps = np.concatenate(acc.purpose), np.concatenate(acc.maps)
             labels = [x for part in acc.labels for x in part]
-            ok = _regular(matrices)
+            ok = _regular(matrices, max(s.record.reach() for s in shp))
             if not ok.all():
-                self.warn(f'{graph.nodes[n].key}: {int((~ok).sum())} placements with singular or '
-                          'non-finite matrices dropped')
+                self.warn(f'{graph.nodes[n].key}: {int((~ok).sum())} placements dropped (a matrix singular or not '
+                          "finite, or placing it past float32's range)")
             for variant, sel in (('', np.isin(purpose, RENDERED) & ok), ('#explicit', ~np.isin(purpose, RENDERED) & ok)):
                 subset = [s for s in shp if variant == '' or s.explicit]
                 if sel.any() and subset:
@@ -407,15 +407,19 @@ def _camera_world(prim: Usd.Prim, time: float) -> np.ndarray:
     return np.array(m).T
 
 
-def _regular(matrices: np.ndarray) -> np.ndarray:
-    """Placements whose matrices are finite and invertible at every motion sample: the 3x3
-    determinant is not negligible against the product of the axis lengths (a collapsed axis)."""
+def _regular(matrices: np.ndarray, reach: float) -> np.ndarray:
+    """Placements whose matrices are finite and invertible at every motion sample (the 3x3 determinant is not
+    negligible against the product of the axis lengths: a collapsed axis), and place a container whose coordinates
+    reach `reach` within float32's range, where Embree traces (|M p| <= |t| + |L| |p| in the max norm)."""
     lin = matrices[..., :3, :3]
     finite = np.all(np.isfinite(matrices), axis=(1, 2, 3))
     lin = np.where(finite[:, None, None, None], lin, 0.0)
     det = np.abs(np.linalg.det(lin))
     norms = np.prod(np.linalg.norm(lin, axis=-2), axis=-1)
-    return finite & np.all((norms > 0) & (det > 1e-9 * norms), axis=1)
+    moved = np.abs(np.where(finite[:, None, None], matrices[..., :3, 3], 0.0)).max(-1)
+    with np.errstate(all='ignore'):                     # (a bound past float64 is inf: refused all the same)
+        bound = moved + np.abs(lin).sum(-1).max(-1) * reach
+    return finite & np.all((norms > 0) & (det > 1e-9 * norms) & (bound <= FLOAT32_MAX), axis=1)
 
 
 def _collapse_static_motion(desc: SceneDescription) -> None:

@@ -11,7 +11,7 @@ import warnings
 import numpy as np
 import pytest
 from click.testing import CliRunner
-from pxr import Gf, Usd, UsdGeom, UsdLux
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
 from rtc.renderer.errors import SceneError
 from rtc.renderer.host.render import RenderOptions, render
@@ -218,3 +218,27 @@ def test_values_past_float32_render_without_numpy_warnings(tmp_path, integrator)
                                     catch_exceptions=False)
     assert result.exit_code == 0 and (tmp_path / 'out.png').stat().st_size > 0, result.output
     assert 'RuntimeWarning' not in result.output
+
+
+@pytest.mark.parametrize('radius, scale, kept', [(1.0, 1.0, 2), (1.0, 1e37, 2), (100.0, 1e37, 1)])
+def test_placements_past_float32_are_dropped_with_a_warning(radius, scale, kept):
+    """An instance whose matrix places its prototype past float32's range (scale x radius > 3.4e38), or is itself
+    past it (a translation of 1e300), is dropped with a warning; the other placements stay."""
+    st = stage()
+    st.DefinePrim('/protos').SetSpecifier(Sdf.SpecifierClass)
+    UsdGeom.Sphere.Define(st, '/protos/ball/s').CreateRadiusAttr(radius)
+    for i, (s, t) in enumerate([(1.0, 2.0), (scale, -2.0), (1.0, 1e300)]):
+        p = UsdGeom.Xform.Define(st, f'/b{i}').GetPrim()
+        p.GetReferences().AddInternalReference('/protos/ball')
+        p.SetInstanceable(True)
+        op = UsdGeom.Xformable(p)
+        op.AddTranslateOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(t, 0, 0))
+        op.AddScaleOp(UsdGeom.XformOp.PrecisionDouble).Set(Gf.Vec3d(s, s, s))
+    desc = read_stage(st)
+    balls = [i for i, c in enumerate(desc.containers) if any(s.path.endswith('/s') and s.path != '/s'
+                                                           for s in c.spheres)]
+    assert len(balls) == 1
+    assert int(np.sum(desc.instances.container == balls[0])) == kept
+    dropped = 3 - kept
+    assert any(f'{dropped} placements dropped' in w and "past float32's range" in w for w in desc.warnings), \
+        desc.warnings
