@@ -7,21 +7,23 @@ relationships and connections, bad xformOpOrders, schema attributes of the wrong
 beside the source's own files (in a mirror of the tree made of symlinks, so its references, sublayers and textures
 resolve as before) and renders it in-process through `rtc render`'s click command at 8 x 6, 1 spp, with either
 integrator (`catch_exceptions=False`: any exception fails the test with the mutations that caused it). The outcome
-must be exit 0 with the image, or exit 2 with rtc's own message naming the file or a prim of the stage, no traceback
+must be exit 0 with an image (EXR) without NaN, or exit 2 with rtc's own message naming the file or a prim of the stage, no traceback
 and no image.
 
 Cases are drawn by `random.Random(seed)` (hypothesis' draws favour the simplest values, and a fuzzer wants the
-others too): 200 seeds by default (about 15 s once the kernels are loaded), 5,000 more with `-m fuzz`.
-
-Neither is in CI's runs (`-m fuzz` runs both): on 2026-12-06 CI's run of the 5,000 (251872f), then of the 200
-(1a3d651), died of a segmentation fault in a render thread (`render.py` `run_pass`) after some tens of cases, which
-local runs of the same seeds did not show; until that crash is found (its seed, then its cause), CI runs neither.
+others too): 200 seeds, 5,000 more with `-m fuzz`.  They run in child processes (this module as a script, 50 or 500
+seeds each: `run_cases`), so that a crash of the renderer fails one test and names its seed, with the command that
+runs it alone, instead of ending the test run: on 2026-12-06 two CI runs in one process (251872f, 1a3d651) died of a
+segmentation fault in a render thread in the 5,000, without a seed to show for it.
 """
 from __future__ import annotations
 
 import itertools
+import json
 import os
 import random
+import subprocess
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -96,18 +98,41 @@ def case(mirror: Path, seed: int):
     check_outcome(mirror, rng.choice(SOURCES), rng, rng.choice(['path', 'cook']))
 
 
-@pytest.mark.fuzz
-@pytest.mark.parametrize('seed', range(200))
-def test_odd_values_render_or_fail_cleanly(mirror, seed):
-    case(mirror, seed)
+def run_cases(mirror: Path, first: int, stop: int) -> list[str]:
+    """Cases [first, stop) in a child process (this module run as a script), so that a crash of the renderer names
+    its seed and does not take the test run down with it; -> the failures' messages."""
+    child = subprocess.run([sys.executable, '-m', 'tests.interop.test_usd_fuzz', str(mirror), str(first), str(stop)],
+                           cwd=REPO, capture_output=True, text=True, timeout=3600)
+    lines = child.stdout.splitlines()
+    failures = [json.loads(line[5:]) for line in lines if line.startswith('fail ')]
+    if child.returncode != 0:
+        started = [int(line.split()[1]) for line in lines if line.startswith('case ')]
+        seed = started[-1] if started else first
+        failures.append(f'seed {seed}: the child process died (exit status {child.returncode}); alone: python -m '
+                        f'tests.interop.test_usd_fuzz {mirror} {seed} {seed + 1}\n{child.stderr[-4000:]}')
+    return failures
 
 
 @pytest.mark.fuzz
-def test_odd_values_render_or_fail_cleanly_5000(mirror):
-    failures = []
-    for seed in range(200, 5200):
+@pytest.mark.parametrize('first', range(0, 200, 50))
+def test_odd_values_render_or_fail_cleanly(mirror, first):
+    failures = run_cases(mirror, first, first + 50)
+    assert not failures, f'{len(failures)} of 50 cases failed:\n' + '\n\n'.join(failures[:3])
+
+
+@pytest.mark.fuzz
+@pytest.mark.parametrize('first', range(200, 5200, 500))
+def test_odd_values_render_or_fail_cleanly_5000(mirror, first):
+    failures = run_cases(mirror, first, first + 500)
+    assert not failures, f'{len(failures)} of 500 cases failed; the first:\n' + '\n\n'.join(failures[:3])
+
+
+if __name__ == '__main__':                # the child of `run_cases`: mirror, first seed, stop
+    os.environ.setdefault('RTC_KERNELS', 'general')          # as the test suite renders (tests/conftest.py)
+    top, start, end = Path(sys.argv[1]), int(sys.argv[2]), int(sys.argv[3])
+    for number in range(start, end):
+        print(f'case {number}', flush=True)
         try:
-            case(mirror, seed)
+            case(top, number)
         except AssertionError as exc:
-            failures.append(f'seed {seed}: {exc}')
-    assert not failures, f'{len(failures)} of 5000 cases failed; the first:\n' + '\n\n'.join(failures[:3])
+            print('fail ' + json.dumps(f'seed {number}: {exc}'), flush=True)
