@@ -59,6 +59,10 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
 
     `load_texture(asset_path, owner) -> index` loads a DomeLight's lat-long image."""
     path, kind = str(prim.GetPath()), prim.GetTypeName()
+    bad = _nonfinite_input(prim, time)
+    if bad is not None:                   # (an infinite width: its samples' directions NaN, which Embree must not see)
+        warn(f'{path}.{bad[0]}: {bad[1]} is not a finite number; light ignored')
+        return None
     api = UsdLux.LightAPI(prim)
     base = _base(api, time)
     normalize = bool(api.GetNormalizeAttr().Get(time))
@@ -160,6 +164,17 @@ def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Op
         return None
     return Light(path=path, type=CYLINDER, matrix=frame, radius=r, length=length,
                  radiance=_rgb(base / area if normalize else base))
+
+
+def _nonfinite_input(prim: Usd.Prim, time: Usd.TimeCode) -> Optional[tuple[str, str]]:
+    """(name, value) of the first `inputs:` number of a light (a size, intensity, colour...) that is not finite."""
+    for attr in prim.GetAttributes():
+        value = attr.Get(time) if attr.GetName().startswith('inputs:') else None
+        if isinstance(value, float) or (hasattr(value, '__len__') and not isinstance(value, str)):
+            numbers = np.asarray(value)
+            if numbers.dtype.kind == 'f' and not np.all(np.isfinite(numbers)):
+                return attr.GetName(), str(value)
+    return None
 
 
 def _base(api: UsdLux.LightAPI, time: Usd.TimeCode) -> np.ndarray:

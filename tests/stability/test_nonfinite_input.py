@@ -6,6 +6,7 @@
   description that reaches the renderer holds only finite numbers, and the image has no NaN/Inf.
 """
 import re
+import subprocess
 import warnings
 
 import numpy as np
@@ -17,6 +18,8 @@ from rtc.renderer.errors import SceneError
 from rtc.renderer.host.render import RenderOptions, render
 from rtc.renderer.usd.stage import read_stage
 from rtc.cli import main
+from rtc.renderer.images import read_pixels
+from tests.interop.interop_helpers import REPO, RTC
 
 XML = """<?xml version="1.0" encoding="UTF-8" ?>
 <scene>
@@ -242,3 +245,34 @@ def test_placements_past_float32_are_dropped_with_a_warning(radius, scale, kept)
     dropped = 3 - kept
     assert any(f'{dropped} placements dropped' in w and "past float32's range" in w for w in desc.warnings), \
         desc.warnings
+
+
+@pytest.mark.parametrize('kind, name, value', [
+    ('RectLight', 'inputs:height', INF), ('RectLight', 'inputs:width', NAN), ('DiskLight', 'inputs:radius', INF),
+    ('CylinderLight', 'inputs:length', INF), ('CylinderLight', 'inputs:radius', NAN),
+    ('DistantLight', 'inputs:angle', INF), ('SphereLight', 'inputs:radius', -INF),
+    ('SphereLight', 'inputs:shaping:cone:angle', NAN)])
+def test_a_light_with_a_nonfinite_input_is_dropped_by_name(kind, name, value):
+    """Every number a light reads is checked, not only its radiance: an infinite size made NaN light samples, whose
+    shadow rays crashed Embree (the USD fuzzer's seeds 2730 and 3394, before `trace.traceable`)."""
+    st = stage()
+    prim = st.DefinePrim('/odd', kind)
+    prim.CreateAttribute(name, Sdf.ValueTypeNames.Float).Set(value)
+    desc = read_stage(st)
+    assert '/odd' not in paths(desc) and '/l' in paths(desc)
+    assert f'/odd.{name}: {value} is not a finite number; light ignored' in desc.warnings, desc.warnings
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_the_gallery_curves_under_a_light_of_infinite_height_render(tmp_path, integrator):
+    """The fuzzer's seed 2730, whole: scenes/curves.usda with its RectLight's height infinite, in a child process (it
+    was a segmentation fault with cook): the light is dropped by name and the image is finite."""
+    st = Usd.Stage.Open(str(REPO / 'scenes' / 'curves.usda'))
+    st.GetPrimAtPath('/World/Key').GetAttribute('inputs:height').Set(INF)
+    st.GetRootLayer().Export(str(tmp_path / 'curves.usda'))
+    out = tmp_path / 'out.exr'
+    child = subprocess.run([*RTC, 'render', str(tmp_path / 'curves.usda'), '-o', str(out), '--width', '16', '--height',
+                            '12', '--spp', '1', '--integrator', integrator], capture_output=True, text=True, timeout=900)
+    assert child.returncode == 0, child.stderr[-3000:]
+    assert '/World/Key.inputs:height: inf is not a finite number; light ignored' in child.stderr + child.stdout
+    assert np.all(np.isfinite(read_pixels(out)[0]))
