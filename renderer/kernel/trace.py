@@ -52,7 +52,7 @@ __all__ = [
     "rtcGetGeometry", "rtcGetGeometryTransformEx",
     "new_ray_buffer", "intersect1", "occluded1", "hit_of", "instance_transform",
     "alloc_packet", "new_packet", "slot", "set_packet_ray", "intersect_packet", "intersect_packet_coherent",
-    "occluded_packet", "lane_hit",
+    "occluded_packet", "lane_hit", "RAY_LIMIT", "traceable",
 ]
 
 SYMBOL_PREFIX = "rtc_emb4_"        # host/embree.py registers LIB.<name> as SYMBOL_PREFIX + <name>
@@ -138,6 +138,20 @@ def _set_ray(f, u, o, d, tnear, tfar, time):
     u[FLAGS] = 0
 
 
+# Embree's own test of a ray it can traverse (`RayK::valid` in its kernels/common/ray.h: every coordinate of the
+# origin and direction within +-FLT_LARGE, 1.844e18), which it does not apply (the wheel's Embree is built without
+# EMBREE_IGNORE_INVALID_RAYS): a NaN direction crashed its traversal (a RectLight of infinite height lighting
+# curves).  A ray that fails it is not traced: it meets nothing, and nothing occludes it.
+RAY_LIMIT = 1.844e18
+
+
+@numba.njit(**INLINE_JIT)
+def traceable(o, d):
+    """Whether Embree can trace the ray (o, d) (`RAY_LIMIT`; False for NaN)."""
+    return (abs(o[0]) <= RAY_LIMIT and abs(o[1]) <= RAY_LIMIT and abs(o[2]) <= RAY_LIMIT
+            and abs(d[0]) <= RAY_LIMIT and abs(d[1]) <= RAY_LIMIT and abs(d[2]) <= RAY_LIMIT)
+
+
 @numba.njit(**INLINE_JIT)
 def intersect1(scene, f, u, o, d, tnear, tfar, time):
     """Closest hit of the ray (origin o, direction d: triples); True if something was hit (then
@@ -155,7 +169,8 @@ def intersect1_masked(scene, f, u, ray, tnear, tfar, time, mask):
     u[GEOM_ID] = INVALID
     u[INST_ID] = INVALID
     u[INST_PRIM_ID] = INVALID
-    rtcIntersect1(scene, f.ctypes.data, 0)
+    if traceable(ray[0], ray[1]):
+        rtcIntersect1(scene, f.ctypes.data, 0)
     return u[GEOM_ID] != INVALID
 
 
@@ -164,7 +179,8 @@ def occluded1(scene, f, u, o, d, tnear, tfar, time):
     """True if anything lies on the ray within [tnear, tfar] (any hit; uses the first 48 B of
     the buffer: Embree sets tfar to -inf when occluded)."""
     _set_ray(f, u, o, d, tnear, tfar, time)
-    rtcOccluded1(scene, f.ctypes.data, 0)
+    if traceable(o, d):
+        rtcOccluded1(scene, f.ctypes.data, 0)
     return f[TFAR] == -np.inf
 
 
@@ -173,7 +189,8 @@ def occluded1_surfaces(scene, f, u, o, d, tnear, tfar, time):
     """`occluded1` against surfaces only (ray mask MASK_SURFACES: light shapes do not occlude)."""
     _set_ray(f, u, o, d, tnear, tfar, time)
     u[MASK] = MASK_SURFACES
-    rtcOccluded1(scene, f.ctypes.data, 0)
+    if traceable(o, d):
+        rtcOccluded1(scene, f.ctypes.data, 0)
     return f[TFAR] == -np.inf
 
 
@@ -255,7 +272,7 @@ def set_packet_ray(packet, lane, o, d, tnear, tfar, time):
     u[slot(packet, GEOM_ID, lane)] = INVALID
     u[slot(packet, INST_ID, lane)] = INVALID
     u[slot(packet, INST_PRIM_ID, lane)] = INVALID
-    packet.valid[lane] = -1
+    packet.valid[lane] = -1 if traceable(o, d) else 0
 
 
 @numba.njit(**INLINE_JIT)

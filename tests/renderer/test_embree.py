@@ -142,6 +142,35 @@ def test_instance_array_of_three_triangle_prototypes(dev):
     assert ids[0].tolist() == [0, 1, 0, 0] and abs(t[0] - 4.25) < 1e-6
 
 
+def test_rays_embree_cannot_trace_meet_nothing(dev):
+    """A ray past Embree's own test of a ray it can traverse (`trace.RAY_LIMIT`, 1.844e18 a coordinate; NaN fails it:
+    a NaN direction crashed Embree's traversal in the USD fuzzer) is not traced, as single rays and in packets: it
+    meets nothing and nothing occludes it, even a ray from 1e19 straight at a square that Embree itself would hit;
+    the same ray from 1e18 hits it."""
+    vertices, triangles = SQUARE
+    proto = dev.prototype_scene([(vertices * np.float32(1e6), triangles)], [])
+    top = dev.top_scene([proto], [InstanceGroup(np.zeros(1, np.uint32), translation()[None, None])])
+    nan = float('nan')
+    origins = np.array([[0, 0, 1e19], [0, 0, 1e18], [0, 0, 5], [nan, 0, 5], [0, 0, 5], [0, 0, 5]], np.float32)
+    dirs = np.array([[0, 0, -1], [0, 0, -1], [0, 0, -1], [0, 0, -1], [nan, 0, -1], [0, 0, -2e18]], np.float32)
+    expected = [False, True, True, False, False, False]
+    t, _, _, ids = probe(top, origins, dirs)
+    assert (ids[:, 1] != INVALID).tolist() == expected
+    assert abs(t[1] / 1e18 - 1) < 1e-6 and t[2] == 5.0
+    assert [_occluded(top.handle, o, d, np.inf) for o, d in zip(origins, dirs)] == expected
+    n = len(origins)
+    rays = (origins, dirs, np.zeros(n, np.float32), np.full(n, np.inf, np.float32), np.zeros(n, np.float32))
+    for width in (16, 8):
+        t16, ids16 = np.empty(n, np.float32), np.full((n, 4), 7, np.uint32)
+        embree_loops.trace_packets(top.handle, rays, t16, ids16, width)
+        assert (ids16[:, 1] != INVALID).tolist() == expected
+        occluded = np.empty(n, bool)
+        embree_loops.occlude_packets(top.handle, rays, occluded, False, width)
+        assert occluded.tolist() == expected
+    assert trace.traceable((0.0, 0.0, -1.844e18), (0.0, 1.0, 0.0)) and not trace.traceable((0.0, 0.0, 0.0),
+                                                                                              (0.0, 1.9e18, 0.0))
+
+
 def test_an_instance_array_of_one_instance_instances_its_own_prototype(dev):
     """Embree 4.4 ignores the index buffer of a one-instance array (it instances the first scene of the
     list): top_scene gives such a group a list of its one prototype.  Two one-instance groups of
