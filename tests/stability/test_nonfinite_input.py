@@ -271,8 +271,8 @@ def test_the_gallery_curves_under_a_light_of_infinite_height_render(tmp_path, in
     st.GetPrimAtPath('/World/Key').GetAttribute('inputs:height').Set(INF)
     st.GetRootLayer().Export(str(tmp_path / 'curves.usda'))
     out = tmp_path / 'out.exr'
-    child = subprocess.run([*RTC, 'render', str(tmp_path / 'curves.usda'), '-o', str(out), '--width', '16', '--height',
-                            '12', '--spp', '1', '--integrator', integrator], capture_output=True, text=True, timeout=900)
+    args = ['render', str(tmp_path / 'curves.usda'), '-o', str(out), '--width', '16', '--height', '12', '--spp', '1']
+    child = subprocess.run([*RTC, *args, '--integrator', integrator], capture_output=True, text=True, timeout=900)
     assert child.returncode == 0, child.stderr[-3000:]
     assert '/World/Key.inputs:height: inf is not a finite number; light ignored' in child.stderr + child.stdout
     assert np.all(np.isfinite(read_pixels(out)[0]))
