@@ -152,7 +152,8 @@ def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked
     except RenderError as e:
         _fail(str(e))
     try:
-        write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)}, encoding=resolved.encoding)
+        write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)}, encoding=resolved.encoding,
+                    warn=lambda message: click.echo(f'rtc: warning: {message}', err=True))
     except FilmError as e:
         _fail(str(e))
     if res.interrupted or checkpoint:
@@ -165,6 +166,9 @@ def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked
     if not quiet:
         click.echo(summary_line(res.stats.seconds, res.film.spp, res.stats.rays, resolved.width, resolved.height),
                    err=True)
+    if not quiet and res.stats.bad_samples:
+        click.echo(f'rtc: warning: {res.stats.bad_samples} samples were not finite (NaN or inf) and were left out of '
+                   f'their pixels', err=True)
     if res.interrupted:
         click.echo(f'rtc: wrote {output} with {res.film.spp} of {resolved.spp} samples per pixel; '
                    f'continue with --resume', err=True)

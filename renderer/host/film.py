@@ -112,7 +112,8 @@ class Film:
     def image(self) -> np.ndarray:
         """Float32 (h, w, 3) per-pixel mean; pixels without samples are 0."""
         n = np.maximum(self.count, 1)[..., None]
-        return (self.sum / n).astype(np.float32)
+        with np.errstate(over='ignore'):                  # past float32's range: inf (`write_image` reports it)
+            return (self.sum / n).astype(np.float32)
 
     def clear(self) -> None:
         self.sum[...] = 0.0
@@ -184,7 +185,8 @@ def _atomic_write(path: str, write) -> None:
 
 # --------------------------------------------------------------------------- images
 def _sanitize(rgb) -> tuple[np.ndarray, int]:
-    a = np.asarray(rgb, dtype=np.float32)
+    with np.errstate(over='ignore'):                      # (float64 past float32's range: inf, counted below)
+        a = np.asarray(rgb, dtype=np.float32)
     if a.ndim == 2:
         a = np.repeat(a[..., None], 3, axis=2)
     if a.ndim != 3 or a.shape[2] not in (3, 4) or a.shape[0] == 0 or a.shape[1] == 0:
@@ -197,14 +199,16 @@ def _sanitize(rgb) -> tuple[np.ndarray, int]:
 
 
 def write_image(path, rgb, metadata: dict | None = None, *, exr_half: bool = False,
-                jpeg_quality: int = 95, encoding: str = 'srgb') -> int:
+                jpeg_quality: int = 95, encoding: str = 'srgb', warn=None) -> int:
     """Write a linear float image (h, w, 3) to ``path`` atomically; format from the extension.
 
     ``metadata`` keys become image attributes (e.g. ``rtc:spp``, ``rtc:sampler``,
     ``rtc:seconds``, ``rtc:rays``, ``rtc:seed``, ``Software``): typed in EXR, strings elsewhere.
     ``encoding`` applies to the 8/16-bit formats: ``srgb`` (the standard) or ``linear`` (values
     written straight into the integers, as the course's renderers do; tagged linear).
-    Returns the number of non-finite values that were replaced by 0.  Raises ``FilmError``."""
+    Returns the number of non-finite values (NaN, or past float32's range) that were replaced by 0, which are
+    also reported: to ``warn(message)`` when given (the CLI's own warnings), else as a RuntimeWarning.  Raises
+    ``FilmError``."""
     path = os.fspath(path)
     if encoding not in ('srgb', 'linear'):
         raise FilmError(f'cannot write {path}: unknown encoding {encoding!r} (use srgb or linear)')
@@ -217,7 +221,11 @@ def write_image(path, rgb, metadata: dict | None = None, *, exr_half: bool = Fal
     meta.setdefault('Software', 'rtc')
     if n_bad:
         meta['rtc:nonfinite'] = n_bad
-        warnings.warn('%s: replaced %d non-finite values by 0' % (path, n_bad), RuntimeWarning, stacklevel=2)
+        message = '%s: replaced %d non-finite values by 0' % (path, n_bad)
+        if warn is None:
+            warnings.warn(message, RuntimeWarning, stacklevel=2)
+        else:
+            warn(message + ' (past float32\'s range, or NaN)')
     h, w, c = data.shape
 
     if ext in LINEAR_FORMATS:

@@ -276,3 +276,33 @@ def test_the_gallery_curves_under_a_light_of_infinite_height_render(tmp_path, in
     assert child.returncode == 0, child.stderr[-3000:]
     assert '/World/Key.inputs:height: inf is not a finite number; light ignored' in child.stderr + child.stdout
     assert np.all(np.isfinite(read_pixels(out)[0]))
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_samples_that_overflow_are_left_out_and_counted(tmp_path, integrator):
+    """A point light of finite intensity 2**1023 / 4 five hundredths from a sphere: its irradiance there passes
+    float64's range, so those samples are inf.  They are left out of their pixels and the user is told how many;
+    pixels whose means pass float32's range are written as 0, and said so in rtc's words, not numpy's or Python's
+    warnings (made errors here).  At exposure 0 nothing is said."""
+    def render_with(exposure):
+        st = stage()
+        st.RemovePrim('/l')
+        light = UsdLux.SphereLight.Define(st, '/hot')
+        light.CreateRadiusAttr(0.0)
+        light.CreateExposureAttr(exposure)
+        UsdGeom.Xformable(light).AddTranslateOp().Set(Gf.Vec3d(0, 0, 1.05))
+        st.GetRootLayer().Export(str(tmp_path / 'hot.usda'))
+        with warnings.catch_warnings():
+            warnings.simplefilter('error', RuntimeWarning)
+            result = CliRunner().invoke(main, ['render', str(tmp_path / 'hot.usda'), '-o', str(tmp_path / 'hot.exr'),
+                                               '--width', '16', '--height', '12', '--spp', '2', '--integrator',
+                                               integrator], catch_exceptions=False)
+        assert result.exit_code == 0, result.output
+        assert np.all(np.isfinite(read_pixels(tmp_path / 'hot.exr')[0]))
+        return result.output
+    output = render_with(1023)
+    said = re.search(r'rtc: warning: (\d+) samples were not finite \(NaN or inf\) and were left out', output)
+    assert said and 0 < int(said.group(1)) < 16 * 12 * 2
+    written = re.search(r"rtc: warning: .*hot.exr: replaced (\d+) non-finite values by 0 \(past float32's range", output)
+    assert written and 0 < int(written.group(1)) <= 16 * 12 * 3, output
+    assert 'not finite' not in render_with(0.0)

@@ -276,7 +276,8 @@ class _Shot:
         path = output_name(self.pattern, task.frame)
         try:
             film_mod.write_image(path, image, _frame_meta(o, self.job, task.frame, self.rays.pop(task.frame),
-                                                          _time.perf_counter() - self.t0))
+                                                          _time.perf_counter() - self.t0),
+                                 warn=self.result.warnings.append)
         except film_mod.FilmError as e:
             raise ShotError(str(e)) from None
         r.written.append(task.frame)
