@@ -11,7 +11,6 @@ is the only place that uses both, to let `rtc render scene.xml` compile in memor
 """
 from __future__ import annotations
 
-import os
 import signal
 import sys
 import time
