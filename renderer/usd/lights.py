@@ -166,14 +166,24 @@ def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Op
                  radiance=_rgb(base / area if normalize else base))
 
 
+# the inputs a light's reading uses (`inputs:colorTemperature` too when enabled): a value that is not finite in any of
+# them drops the light; one in an input it does not read (a shaping cone angle) is left alone, as renderers that do not
+# read it would
+READ_INPUTS = ('intensity', 'exposure', 'color', 'width', 'height', 'radius', 'length', 'angle')
+
+
 def _nonfinite_input(prim: Usd.Prim, time: Usd.TimeCode) -> Optional[tuple[str, str]]:
-    """(name, value) of the first `inputs:` number of a light (a size, intensity, colour...) that is not finite."""
-    for attr in prim.GetAttributes():
-        value = attr.Get(time) if attr.GetName().startswith('inputs:') else None
-        if isinstance(value, float) or (hasattr(value, '__len__') and not isinstance(value, str)):
-            numbers = np.asarray(value)
-            if numbers.dtype.kind == 'f' and not np.all(np.isfinite(numbers)):
-                return attr.GetName(), str(value)
+    """(name, value) of the first input in `READ_INPUTS` of a light whose number is not finite."""
+    names = READ_INPUTS + (('colorTemperature',) if prim.GetAttribute('inputs:enableColorTemperature').Get(time)
+                           else ())
+    for name in names:
+        attr = prim.GetAttribute('inputs:' + name)
+        value = attr.Get(time) if attr else None
+        if value is None or isinstance(value, str):
+            continue
+        numbers = np.asarray(value)                       # (a number, a Gf vector; other types: not 'f')
+        if numbers.dtype.kind == 'f' and not np.all(np.isfinite(numbers)):
+            return attr.GetName(), str(value)
     return None
 
 

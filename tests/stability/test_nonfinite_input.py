@@ -251,16 +251,28 @@ def test_placements_past_float32_are_dropped_with_a_warning(radius, scale, kept)
     ('RectLight', 'inputs:height', INF), ('RectLight', 'inputs:width', NAN), ('DiskLight', 'inputs:radius', INF),
     ('CylinderLight', 'inputs:length', INF), ('CylinderLight', 'inputs:radius', NAN),
     ('DistantLight', 'inputs:angle', INF), ('SphereLight', 'inputs:radius', -INF),
-    ('SphereLight', 'inputs:shaping:cone:angle', NAN)])
+    ('SphereLight', 'inputs:exposure', NAN), ('RectLight', 'inputs:colorTemperature', INF)])
 def test_a_light_with_a_nonfinite_input_is_dropped_by_name(kind, name, value):
-    """Every number a light reads is checked, not only its radiance: an infinite size made NaN light samples, whose
-    shadow rays crashed Embree (the USD fuzzer's seeds 2730 and 3394, before `trace.traceable`)."""
+    """Every number a light's reading uses is checked, not only its radiance: an infinite size made NaN light
+    samples, whose shadow rays crashed Embree (the USD fuzzer's seeds 2730 and 3394, before `trace.traceable`)."""
     st = stage()
     prim = st.DefinePrim('/odd', kind)
     prim.CreateAttribute(name, Sdf.ValueTypeNames.Float).Set(value)
+    prim.CreateAttribute('inputs:enableColorTemperature', Sdf.ValueTypeNames.Bool).Set(True)
     desc = read_stage(st)
     assert '/odd' not in paths(desc) and '/l' in paths(desc)
     assert f'/odd.{name}: {value} is not a finite number; light ignored' in desc.warnings, desc.warnings
+
+
+@pytest.mark.parametrize('name, value', [('inputs:shaping:cone:angle', NAN), ('inputs:colorTemperature', INF),
+                                         ('inputs:shadow:distance', INF)])
+def test_a_nonfinite_input_the_reading_does_not_use_keeps_the_light(name, value):
+    """A light keeps its place when the odd value is in an input rtc does not read (a shaping cone, a colour
+    temperature that is not enabled), as renderers that do not read it would."""
+    st = stage()
+    st.GetPrimAtPath('/l').CreateAttribute(name, Sdf.ValueTypeNames.Float).Set(value)
+    desc = read_stage(st)
+    assert '/l' in paths(desc) and not any('not a finite number' in w for w in desc.warnings), desc.warnings
 
 
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
@@ -291,10 +303,11 @@ def test_samples_that_overflow_are_left_out_and_counted(tmp_path, integrator):
         light.CreateRadiusAttr(0.0)
         light.CreateExposureAttr(exposure)
         UsdGeom.Xformable(light).AddTranslateOp().Set(Gf.Vec3d(0, 0, 1.05))
-        st.GetRootLayer().Export(str(tmp_path / 'hot.usda'))
+        src = tmp_path / f'hot{exposure:g}.usda'          # (a file each: USD keeps the layer it opened)
+        st.GetRootLayer().Export(str(src))
         with warnings.catch_warnings():
             warnings.simplefilter('error', RuntimeWarning)
-            result = CliRunner().invoke(main, ['render', str(tmp_path / 'hot.usda'), '-o', str(tmp_path / 'hot.exr'),
+            result = CliRunner().invoke(main, ['render', str(src), '-o', str(tmp_path / 'hot.exr'),
                                                '--width', '16', '--height', '12', '--spp', '2', '--integrator',
                                                integrator], catch_exceptions=False)
         assert result.exit_code == 0, result.output
