@@ -3,7 +3,7 @@
 Each mutation is authored on the stage's root layer (an opinion over whatever the stage composes), chosen by a
 `random.Random` (the tests seed one per case):
 
-* a value: an attribute of a prim set to an odd value of its own type (NaN, Inf, 1e38, -1, 0 in a component;
+* a value: an attribute of a prim set to an odd value of its own type (NaN, Inf, 1e38, 1e300, -1, 0 in a component;
   for arrays: empty, one element, doubled, truncated, one element poisoned), at the default time or as a time
   sample, or blocked;
 * a prim's type changed to another schema's (a Mesh becomes a Sphere, a light a PointInstancer ...);
@@ -21,7 +21,7 @@ import random
 
 from pxr import Gf, Sdf, Usd, Vt
 
-ODD_FLOATS = [float('nan'), float('inf'), -float('inf'), 1e38, -1e38, 0.0, -0.0, -1.0, 1e-38, 3e9]
+ODD_FLOATS = [float('nan'), float('inf'), -float('inf'), 1e38, -1e38, 0.0, -0.0, -1.0, 1e-38, 3e9, 1e300, -1e300]
 ODD_INTS = [-1, 0, 7, 1_000_000, 2 ** 31 - 1, -2 ** 31]
 TOKENS = ['bogus', '', 'none', 'catmullClark', 'cubic', 'linear', 'bspline', 'catmullRom', 'bezier', 'vertex',
           'varying', 'uniform', 'faceVarying', 'constant', 'periodic', 'nonperiodic', 'pinned', 'rightHanded',
