@@ -152,7 +152,7 @@ def render_cmd(scene, output, camera, checkpoint, resume, strict, quiet, **asked
         _fail(str(e))
     try:
         write_image(output, res.image, {**res.metadata(), 'rtc:scene': str(scene)}, encoding=resolved.encoding,
-                    warn=lambda message: click.echo(f'rtc: warning: {message}', err=True))
+                    warn=lambda message: None if quiet else click.echo(f'rtc: warning: {message}', err=True))
     except FilmError as e:
         _fail(str(e))
     if res.interrupted or checkpoint:

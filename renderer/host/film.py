@@ -221,11 +221,11 @@ def write_image(path, rgb, metadata: dict | None = None, *, exr_half: bool = Fal
     meta.setdefault('Software', 'rtc')
     if n_bad:
         meta['rtc:nonfinite'] = n_bad
-        message = '%s: replaced %d non-finite values by 0' % (path, n_bad)
+        message = f"{path}: replaced {n_bad} non-finite values by 0 (past float32's range, or NaN)"
         if warn is None:
             warnings.warn(message, RuntimeWarning, stacklevel=2)
         else:
-            warn(message + ' (past float32\'s range, or NaN)')
+            warn(message)
     h, w, c = data.shape
 
     if ext in LINEAR_FORMATS:
