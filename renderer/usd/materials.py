@@ -5,8 +5,11 @@ Resolution order for a bound material:
    parameters (``rtc:diffuse``, ``rtc:specular``, ``rtc:phongExp``, ... see
    schemas/usd-conventions.md).
 2. Its universal-render-context surface shader if that is a ``UsdPreviewSurface``: constant inputs
-   (following material-interface connections), and ``UsdUVTexture`` connections on
-   ``diffuseColor`` / ``specularColor`` (file, wrapS/T, scale, bias, sourceColorSpace, fallback).
+   (following material-interface connections), ``UsdUVTexture`` connections on
+   ``diffuseColor`` / ``specularColor`` / ``emissiveColor`` (file, wrapS/T, scale, bias, sourceColorSpace,
+   fallback), and ``UsdPrimvarReader_float`` / ``_float3`` connections on any input: the gprim's primvar
+   ``varname`` (found with inheritance; its ``fallback`` where the gprim has none), so that one material
+   gives each gprim its own value (`MaterialTable.bound`).
 3. Anything else (MaterialX-only networks, unknown shader ids, missing surface) -> a warning and
    the gprim's fallback.
 A gprim without a usable material gets a fallback material: its ``primvars:displayColor``
@@ -36,6 +39,20 @@ PREVIEW_ROUGHNESS = 0.5              # UsdPreviewSurface roughness where unautho
 _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
 _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture',
                    'emissiveColor': 'emission_texture'}
+# UsdPrimvarReader ids -> the kind of value they read (`typed`); a reader feeds an input of its own kind
+_READERS = {'UsdPrimvarReader_float': 'float', 'UsdPrimvarReader_float3': 'color3', 'UsdPrimvarReader_normal': 'color3',
+            'UsdPrimvarReader_point': 'color3', 'UsdPrimvarReader_vector': 'color3'}
+
+
+@dataclasses.dataclass(frozen=True)
+class PrimvarInput:
+    """A UsdPreviewSurface input driven by a UsdPrimvarReader: the Material field it sets, the kind of
+    value, the primvar's name, the reader's fallback value and the reader (for messages)."""
+    field: str
+    kind: str
+    varname: str
+    fallback: object
+    reader: str
 
 
 def typed(value, kind: str):
@@ -67,17 +84,82 @@ class MaterialTable:
         self.materials: list[Material] = []
         self.textures: list[Texture] = []
         self._index: dict = {}          # material path / fallback key -> material index
+        self._converted: dict = {}      # material path -> (Material or None, its PrimvarInputs)
+        self._reading: list = []        # the PrimvarInputs of the material being converted
         self._pixels: dict = {}         # (resolved file, colour space) -> float32 pixels or None
         self._texture_index: dict = {}  # (file, colour space, wraps, scale, bias, light) -> index
 
     # ------------------------------------------------------------------ entry points
-    def bound(self, material: UsdShade.Material) -> int | None:
-        """Index of a bound material, or None when it has no usable surface (warned once)."""
+    def bound(self, material: UsdShade.Material, gprim: Usd.Prim | None = None) -> int | None:
+        """Index of a material bound to `gprim`, or None when it has no usable surface (warned once).  A
+        material whose inputs read primvars (`reads_primvars`) gives one material per set of values its
+        gprims hold (`_primvar_value`), as Storm binds each gprim's primvars to the shader."""
         key = str(material.GetPath())
-        if key not in self._index:
+        converted, inputs = self._template(material)
+        if converted is None:
+            return None
+        values = tuple(self._primvar_value(gprim, r) for r in inputs)
+        if (key, values) not in self._index:
+            fields = {}
+            for r, v in zip(inputs, values):
+                if isinstance(v, str):                   # per corner: the mesh's colours times white
+                    fields.update({r.field: (1.0, 1.0, 1.0), 'vertex_colors': True})
+                else:
+                    fields[r.field] = v
+            label = key if not inputs else f'{key} <{gprim.GetPath() if gprim else "no gprim"}>'
+            self._index[(key, values)] = self._add(dataclasses.replace(converted, path=label, **fields))
+        return self._index[(key, values)]
+
+    def reads_primvars(self, material: UsdShade.Material) -> bool:
+        """Whether a material's inputs read its gprims' primvars (so that instances of one prototype, which
+        inherit primvars from their own ancestors, may each get another material)."""
+        return bool(self._template(material)[1])
+
+    def _template(self, material: UsdShade.Material) -> tuple:
+        """(Material or None, its PrimvarInputs) of a material, converted once."""
+        key = str(material.GetPath())
+        if key not in self._converted:
+            self._reading = []
             converted = self._convert(material)
-            self._index[key] = self._add(converted) if converted else None
-        return self._index[key]
+            self._converted[key] = (converted, tuple(self._reading))
+        return self._converted[key]
+
+    def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput):
+        """The value a UsdPrimvarReader reads on `gprim` (a GeomSubset: its mesh's): its primvar r.varname
+        (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
+        curves' displayColor that varies over them (their per-corner colours, `geometry.varying_display_color`);
+        the mean, warned, for another that varies; the reader's fallback where the gprim has none (as Storm)."""
+        if gprim is None or not r.varname:
+            return r.fallback
+        prim = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
+        pv = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(r.varname)
+        if not pv or not pv.HasAuthoredValue():
+            return r.fallback
+        name = pv.GetAttr().GetName()
+        if pv.GetTypeName().isArray:
+            values = flattened(pv, self.time, self.warn, f"{r.reader}'s fallback used")
+        else:                                            # (a constant primvar of a scalar type)
+            values = [pv.Get(self.time)]
+        try:
+            v = np.asarray([] if values is None else values, np.float64)
+        except (TypeError, ValueError):
+            v = np.zeros((1, 0))
+        width = 3 if r.kind == 'color3' else 1
+        v = v.reshape(len(v), -1) if v.ndim else v.reshape(0, 1)
+        if len(v) == 0 or v.shape[1] != width or not np.all(np.isfinite(v)):
+            if len(v):
+                what = 'RGB colours' if width == 3 else 'numbers'
+                self.warn(f'{prim.GetPath()}: {name} is not a list of finite {what}, as {r.reader} reads it; '
+                          'its fallback used')
+            return r.fallback
+        if pv.GetInterpolation() != UsdGeom.Tokens.constant and np.any(v != v[0]):
+            if r.field == 'diffuse' and r.varname == 'displayColor' and \
+                    varying_display_color(prim, self.time) is not None:
+                return 'per corner'
+            self.warn(f'{prim.GetPath()}: {name} varies over it ({pv.GetInterpolation()}); {r.reader} reads its '
+                      'mean')
+            v = v.mean(axis=0, keepdims=True)
+        return tuple(float(x) for x in v[0]) if width == 3 else float(v[0, 0])
 
     def fallback(self, gprim: Usd.Prim) -> int:
         """The displayColor (or grey) material of a gprim with no usable bound material: a mesh whose
@@ -203,6 +285,9 @@ class MaterialTable:
                         setattr(m, field, (1.0, 1.0, 1.0))
                     else:
                         setattr(m, field, fallback)
+                elif source.GetShaderId() in _READERS and _READERS[source.GetShaderId()] == kind and \
+                        field != 'use_specular_workflow':
+                    self._primvar_reader(source, field, kind)
                 else:
                     self.warn(f'{path}: inputs:{name} is driven by {source.GetShaderId() or "a shader"} '
                               f'({source.GetPath()}), which is not supported; using its default')
@@ -210,6 +295,23 @@ class MaterialTable:
             if value is not None:
                 setattr(m, field, bool(value) if field == 'use_specular_workflow' else value)
         return m
+
+    def _primvar_reader(self, reader: UsdShade.Shader, field: str, kind: str) -> None:
+        """Record that Material field `field` reads the primvar a UsdPrimvarReader names (`bound` reads it
+        per gprim); its inputs:varname (a token or string, following material-interface connections; a
+        leading "primvars:" is dropped) and inputs:fallback (default 0, as its Sdr definition)."""
+        varname, _ = self._input(reader, 'varname', 'token')
+        fallback, _ = self._input(reader, 'fallback', kind)
+        if fallback is None:
+            fallback = (0.0, 0.0, 0.0) if kind == 'color3' else 0.0
+        elif not np.all(np.isfinite(fallback)):
+            self.warn(f'{reader.GetPath()}.inputs:fallback: {fallback} is not finite; 0 used')
+            fallback = (0.0, 0.0, 0.0) if kind == 'color3' else 0.0
+        name = str(varname or '')
+        name = name[len('primvars:'):] if name.startswith('primvars:') else name
+        if not name:
+            self.warn(f'{reader.GetPath()}: {reader.GetShaderId()} without inputs:varname; its fallback used')
+        self._reading.append(PrimvarInput(field, kind, name, fallback, str(reader.GetPath())))
 
     def _input(self, shader: UsdShade.Shader, name: str, kind: str):
         """(constant value as `kind`, None) or (None, source shader) for a shader input, following

@@ -317,12 +317,13 @@ class _Reader:
         # representatives first; a group shares their results unless one bound a material inside it
         is_rep = [g is not None and rep_of[g] == e[0][1] for e in entries for g in (e[2],)]
         result = compute([e for e, r in zip(entries, is_rep) if r])
-        private = set()                  # groups whose representative bound a material inside itself
+        private = set()                  # groups whose representative bound a material inside itself, or reading primvars
         for (key, path, group), r in zip(entries, is_rep):
             if r and key in result:
                 mat = result[key][1]
                 inside = graph.maps[key[1]][1]
-                if mat and (str(mat.GetPath()) + '/').startswith(inside + '/'):
+                # (a material reading primvars: an instance inherits its own from its ancestors)
+                if mat and ((str(mat.GetPath()) + '/').startswith(inside + '/') or self.materials.reads_primvars(mat)):
                     private.add(group)
         shared = [group is not None and group not in private and not r for (_, _, group), r in zip(entries, is_rep)]
         result.update(compute([e for e, r, sh in zip(entries, is_rep, shared) if not r and not sh]))
@@ -336,7 +337,7 @@ class _Reader:
                 continue
             if key in result:
                 prim, mat = result[key]
-                found = self.materials.bound(mat) if mat else None
+                found = self.materials.bound(mat, prim) if mat else None
                 index[key] = found if found is not None else self.materials.fallback(prim)
                 glow = mesh_light_radiance(prim, self.tc, self.warn)
                 if glow is not None:                 # UsdLux MeshLightAPI: the mesh emits
