@@ -18,7 +18,7 @@ times in one pass per time (one `UsdGeom.XformCache` each), and `InstanceGraph.f
 the reference graph into placements: (container, world matrices (N, K, 4, 4), purpose, namespace
 map).  The namespace map records how a path inside the container reads on the composed stage
 (``/__Prototype_3/Geom`` -> ``/World/Tree_7/Geom``), which is what per-instance material binding
-resolution needs; it is only marked as needing resolution when some binding or displayColor is
+resolution needs; it is only marked as needing resolution when some binding or primvar is
 authored on the way (an instance prim or its ancestors), so that 10^5 plain instances cost
 nothing extra.
 
@@ -242,7 +242,7 @@ class InstanceGraph:
                         b = True
                         if 'material:binding:collection' in joined:
                             self.collection_bindings = True
-                    elif 'primvars:displayColor' in joined:
+                    elif 'primvars:' in joined:      # (displayColor, or one a material's primvar reader reads)
                         b = True
                     if animated and 'xformOp' in joined:
                         self.xform_prims.append(prim)
@@ -523,7 +523,7 @@ class InstanceGraph:
         return dst + path[len(src):] if path.startswith(src + '/') else path
 
     def needs_resolution(self) -> np.ndarray:
-        """Per namespace map: bindings or displayColor authored on the way (bool array)."""
+        """Per namespace map: bindings or primvars authored on the way (bool array)."""
         return np.fromiter((m[2] for m in self.maps), bool, len(self.maps))
 
     def _descend(self, maps: np.ndarray, refs: list[Ref]) -> tuple[np.ndarray, list[str]]:

@@ -135,22 +135,22 @@ def test_varname_through_the_material_interface_and_with_its_namespace():
     assert _materials(read_stage(st))['/A'].diffuse == pytest.approx(BLUE)
 
 
-def test_instances_read_the_primvars_of_their_own_ancestors():
-    """One prototype sphere under two instanceable Xforms, each with its own constant displayColor (inherited
-    by the sphere): each instance gets its colour (material sets), not the first instance's."""
+@pytest.mark.parametrize('name', ['displayColor', 'tint'])
+def test_instances_read_the_primvars_of_their_own_ancestors(name):
+    """One prototype sphere under two instanceable Xforms, each with its own constant primvar (inherited by the
+    sphere): each instance gets its colour (material sets), not the first instance's."""
     st = Usd.Stage.CreateInMemory()
-    mat = _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', 'displayColor', None)})
+    mat = _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', name, None)})
     proto = UsdGeom.Xform.Define(st, '/Proto')
     proto.GetPrim().SetSpecifier(Sdf.SpecifierClass)
     ball = UsdGeom.Sphere.Define(st, '/Proto/Ball')
     UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(mat)
-    for name, x, colour in (('L', -1.2, RED), ('R', 1.2, BLUE)):
-        inst = UsdGeom.Xform.Define(st, f'/{name}')
+    for root, x, colour in (('L', -1.2, RED), ('R', 1.2, BLUE)):
+        inst = UsdGeom.Xform.Define(st, f'/{root}')
         inst.GetPrim().GetReferences().AddInternalReference('/Proto')
         inst.GetPrim().SetInstanceable(True)
         inst.AddTranslateOp().Set(Gf.Vec3d(x, 0.0, 0.0))
-        UsdGeom.PrimvarsAPI(inst.GetPrim()).CreatePrimvar('displayColor', Sdf.ValueTypeNames.Color3fArray).Set(
-            [colour])
+        UsdGeom.PrimvarsAPI(inst.GetPrim()).CreatePrimvar(name, Sdf.ValueTypeNames.Color3fArray).Set([colour])
     _lit(st)
     desc = read_stage(st)
     colours = sorted(tuple(round(v, 4) for v in desc.materials[s[0]].diffuse) for s in desc.instances.material_sets)
