@@ -176,6 +176,7 @@ class Material:
     emission: tuple = (0.0, 0.0, 0.0)       # UsdPreviewSurface emissiveColor
     metallic: float = 0.0                   # UsdPreviewSurface
     opacity: float = 1.0                    # UsdPreviewSurface
+    opacity_threshold: float = 0.0          # UsdPreviewSurface: > 0, opacity below it is 0, at or above it 1
     use_specular_workflow: bool = False     # UsdPreviewSurface
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
@@ -183,6 +184,10 @@ class Material:
     specular_texture: int = -1
     emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)
     vertex_colors: bool = False             # diffuse times the gprim's per-corner displayColor (Mesh.colors)
+    # UsdPreviewSurface roughness, metallic, opacity connected to a UsdUVTexture's r, g, b or a output: its index
+    # (-1: none) and the channel (0-3) for each, in that order; the input's value (1) is multiplied by it
+    scalar_textures: tuple = (-1, -1, -1)
+    scalar_channels: tuple = (0, 0, 0)
     # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
 
 

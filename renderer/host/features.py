@@ -15,8 +15,8 @@ import numpy as np
 from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
-                             LF_COURSE, MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
-                             MI_SPECULAR_TEX, MI_VERTEX_COLOR)
+                             LF_COURSE, MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MF_OPACITY_CUT, MI_DIFFUSE_TEX,
+                             MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY)
 
 
 def general_kernels() -> bool:
@@ -24,12 +24,20 @@ def general_kernels() -> bool:
     return os.environ.get('RTC_KERNELS', '').strip().lower() == 'general'
 
 
+def constant_opacity(mf: np.ndarray) -> np.ndarray:
+    """The opacity of each material row of mf without a texture: its input, or with an opacityThreshold > 0,
+    0 below it and 1 at or above it (`kernel/materials.opacity`)."""
+    a, cut = mf[:, MF_OPACITY].astype(np.float64), mf[:, MF_OPACITY_CUT].astype(np.float64)
+    return np.where(cut > 0.0, (a >= cut).astype(np.float64), a)
+
+
 def see_through(data) -> bool:
     """Whether a surface of the built scene tables `data` lets some rays through: a UsdPreviewSurface that
-    a gprim can have, with opacity < 1."""
+    a gprim can have, with opacity < 1 or an opacity texture."""
     used = np.unique(np.concatenate([data.gp_material, data.matset[data.matset >= 0]]))
     mi, mf = data.mat_i[used], data.mat_f[used]
-    return bool(np.any(mf[mi[:, MI_MODEL] == D.PREVIEW_SURFACE, MF_OPACITY] < 1.0))
+    open_ = (constant_opacity(mf) < 1.0) | (mi[:, MI_SCALAR_TEX + S_OPACITY] >= 0)
+    return bool(np.any(open_[mi[:, MI_MODEL] == D.PREVIEW_SURFACE]))
 
 
 def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None) -> Features:
@@ -51,7 +59,8 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         dome_texture=bool(np.any(data.li_tex[domes] >= 0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
-        textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)),
+        textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)
+                      or np.any(mi[:, MI_SCALAR_TEX:MI_SCALAR_TEX + 3] >= 0)),
         opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),

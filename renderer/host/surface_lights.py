@@ -66,9 +66,10 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT, MF_OPACITY,
-                             MI_EMISSION_TEX, MI_MODEL, SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE,
-                             TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
+from ..kernel.tables import (GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT,
+                             MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SURFACE_LIGHT_F, SURFACE_LIGHT_I,
+                             TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
+from .features import constant_opacity
 from .light_tree import ENTIRE
 
 MAX_TRIANGLES = 100_000
@@ -108,10 +109,10 @@ def _ball_counts(data) -> np.ndarray:
 
 def texture_mean(data, k: int) -> np.ndarray:
     """The mean absolute RGB value of texture k of the scene tables (its texels with the UsdUVTexture scale
-    and bias, channels as `kernel/textures._texel` reads them)."""
+    and bias, channels as `kernel/textures.sample_texture` reads them: one or two channels are grey)."""
     off, w, h, ch = (int(data.tex_i[k, c]) for c in (TI_OFFSET, TI_WIDTH, TI_HEIGHT, TI_CHANNELS))
     px = data.tex_data[off:off + w * h * ch].reshape(-1, ch).astype(np.float64)
-    rgb = px[:, [c if c < ch else (0 if ch < 3 else ch - 1) for c in range(3)]]
+    rgb = px[:, [c if ch >= 3 else 0 for c in range(3)]]
     return np.abs(rgb * data.tex_f[k, TF_SCALE:TF_SCALE + 3] + data.tex_f[k, TF_BIAS:TF_BIAS + 3]).mean(0)
 
 
@@ -129,7 +130,7 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
     mat[has] = data.matset[base[has] + slot]
     mat = np.where(mat >= 0, mat, data.gp_material[g])
     emit = data.mat_f[mat, MF_EMIT:MF_EMIT + 3].astype(np.float64)
-    opacity = data.mat_f[mat, MF_OPACITY].astype(np.float64)
+    opacity = constant_opacity(data.mat_f[mat])
     see_through = (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE) & (opacity < 1.0)
     emit[see_through] *= np.maximum(opacity[see_through], 0.0)[:, None]
     tex = data.mat_i[mat, MI_EMISSION_TEX].astype(np.int64)
@@ -139,7 +140,10 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
             means[int(k)] = texture_mean(data, int(k))
         mean[tex == k] = means[int(k)]
     lum = (np.abs(emit) * mean) @ _LUM
-    return np.column_stack([emit, tex, lum]), (lum > 0.0) & np.all(np.isfinite(emit), 1)
+    # (an opacity texture makes its emission vary as light samples do not see it: such a surface is found by
+    # BSDF rays alone, weight 1, as before emissive surfaces were lights)
+    shaded = data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] < 0
+    return np.column_stack([emit, tex, lum]), (lum > 0.0) & np.all(np.isfinite(emit), 1) & shaded
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:

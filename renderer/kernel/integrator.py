@@ -39,13 +39,13 @@ from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURF
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
-                        refract, sample_ggx_h, smith_g, _schlick)
+                        refract, sample_ggx_h, scalars, smith_g, _schlick)
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import corner_color, surface
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_OPACITY, MF_ROUGH, MI_MODEL, MI_VERTEX_COLOR
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_VERTEX_COLOR
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
                     intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
@@ -217,7 +217,7 @@ def _shading_point(S, tr, ray, time):
     if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] != 0:        # (the displayColor fallback: a mesh's, a cloud's)
         c = corner_color(S, g, hit)
         kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
-    return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks)
+    return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks, scalars(S, mat, st))
 
 
 @nb.njit(**STAGE_JIT)
@@ -254,7 +254,7 @@ def _direct_light(S, tr, path, sp, depth, state):
             continue
         if dot(wi, sp.ng) <= 0.0:
             continue
-        c = direct(S, sp.mat, sp.kd, sp.ks, sp.ns, sp.wo, wi, E)
+        c = direct(S, sp, wi, E)
         if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
             continue
         if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or sp.model == D.COOL_TO_WARM):
@@ -313,7 +313,7 @@ def _ggx_reflection(S, key, sp, dvec, depth, state):
     ns = sp.ns
     n_lights = _n_lights(S)
     dead = Continuation(False, (0.0, 0.0, 0.0), dvec, state.T, state.A)
-    diff, f0, f90, alpha = preview_params(S, sp.mat, sp.kd, sp.ks)
+    diff, f0, f90, alpha = preview_params(S, sp.mat, sp.kd, sp.ks, sp.rmo)
     g1, g2 = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, bsdf_dim(depth, n_lights))
     tt, bb = onb(ns)
     h = normalize(sample_ggx_h(ns, alpha, g1, g2, tt, bb))
@@ -408,11 +408,10 @@ def trace_path(S, tr, path, ray, max_depth, packet):
             tg *= ag ** t
             tb *= ab ** t
         sp = _shading_point(S, tr, Ray((float(ox), float(oy), float(oz)), dvec), time)
-        mf = S.mat_f
         mat = sp.mat
         # ---- transparency (UsdPreviewSurface opacity): pass straight through with prob. 1 - opacity
         if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or sp.model == D.PREVIEW_SURFACE):
-            opacity = float(mf[mat, MF_OPACITY])
+            opacity = sp.rmo[2]
             if F_OPACITY and opacity < 1.0:
                 if sample_1d(key.sampler, key.seed, key.pixel, key.index, key.spp,
                              choice_dim(depth, n_lights)) >= opacity:

@@ -24,8 +24,9 @@ from .. import description as D
 from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS, F_TEXTURES
 from .jit import JIT, SHADING_INLINE_JIT
 from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
-                    MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SPECULAR_TEX)
-from .textures import sample_texture
+                     MF_OPACITY, MF_OPACITY_CUT, MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_CH,
+                     MI_SCALAR_TEX, MI_SPECULAR_TEX, S_METAL, S_OPACITY, S_ROUGH)
+from .textures import sample_channel, sample_texture
 from .vecmath import dot, normalize
 
 GOOCH_BLUE, GOOCH_YELLOW, GOOCH_ALPHA, GOOCH_BETA = 0.4, 0.4, 0.2, 0.6
@@ -46,6 +47,35 @@ def colors(S, mat, st):
         c = sample_texture(S, ts, st[0], st[1])
         ks = (ks[0] * c[0], ks[1] * c[1], ks[2] * c[2])
     return kd, ks
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def scalar(S, mat, st, col, k):
+    """Material mat's scalar input in column col of mat_f, times its texture's channel at st where one drives
+    it (input k of MI_SCALAR_TEX: S_ROUGH, S_METAL, S_OPACITY)."""
+    v = float(S.mat_f[mat, col])
+    t = S.mat_i[mat, MI_SCALAR_TEX + k]
+    if F_TEXTURES and t >= 0:
+        v *= sample_channel(S, t, st[0], st[1], S.mat_i[mat, MI_SCALAR_CH + k])
+    return v
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def scalars(S, mat, st):
+    """(roughness, metallic, opacity) of material mat at texture coordinates st: its inputs, times their
+    textures there where textures drive them (`ShadingPoint.rmo`)."""
+    return scalar(S, mat, st, MF_ROUGH, S_ROUGH), scalar(S, mat, st, MF_METAL, S_METAL), opacity(S, mat, st)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def opacity(S, mat, st):
+    """Material mat's opacity at texture coordinates st (its texture's channel there where one drives it);
+    with an opacityThreshold > 0, 0 below the threshold and 1 at or above it (a cut-out, as Storm masks)."""
+    a = scalar(S, mat, st, MF_OPACITY, S_OPACITY)
+    cut = float(S.mat_f[mat, MF_OPACITY_CUT])
+    if cut > 0.0:
+        a = 1.0 if a >= cut else 0.0
+    return a
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -75,14 +105,15 @@ def _schlick(f0, f90, c):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def preview_params(S, mat, kd, ks):
-    """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface."""
+def preview_params(S, mat, kd, ks, rmo):
+    """-> (diffuse rgb, F0 rgb, F90 rgb, alpha) of a UsdPreviewSurface whose colours are kd, ks and its
+    roughness and metallic rmo[0], rmo[1] (`scalars`)."""
     mf = S.mat_f
-    rough = max(float(mf[mat, MF_ROUGH]), 0.001)
+    rough = max(rmo[0], 0.001)
     alpha = rough * rough
     if mf[mat, MF_SPECWF] != 0.0:
         return kd, ks, (1.0, 1.0, 1.0), alpha
-    metal = float(mf[mat, MF_METAL])
+    metal = rmo[1]
     ior = float(mf[mat, MF_IOR])
     r = (1.0 - ior) / (1.0 + ior)
     r *= r
@@ -108,9 +139,10 @@ def smith_g(nl, nv, alpha):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def direct(S, mat, kd, ks, n, wo, wi, E):
-    """Reflected radiance towards wo from one light sample arriving along wi with E_perp = E.
-    n is the shading normal on the viewer's side."""
+def direct(S, sp, wi, E):
+    """Reflected radiance towards sp.wo from one light sample arriving along wi with E_perp = E at shading
+    point sp (a `records.ShadingPoint`; its shading normal on the viewer's side)."""
+    mat, kd, ks, n, wo = sp.mat, sp.kd, sp.ks, sp.ns, sp.wo
     model = S.mat_i[mat, MI_MODEL]
     cos_i = dot(n, wi)
     if cos_i <= 0.0:
@@ -126,7 +158,7 @@ def direct(S, mat, kd, ks, n, wo, wi, E):
         return (e * (tw * warm[0] + (1 - tw) * cool[0]), e * (tw * warm[1] + (1 - tw) * cool[1]),
                 e * (tw * warm[2] + (1 - tw) * cool[2]))
     if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or model == D.PREVIEW_SURFACE):
-        diff, f0, f90, alpha = preview_params(S, mat, kd, ks)
+        diff, f0, f90, alpha = preview_params(S, mat, kd, ks, sp.rmo)
         nv = dot(n, wo)
         if nv <= 0.0:
             return (0.0, 0.0, 0.0)

@@ -45,21 +45,21 @@ from .bsdf import BLACK, course_bsdf, evaluate_seen, is_delta, preview_bsdf, sam
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
-                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
+                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS, F_TEXTURES)
 from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
                          _enqueue_shadow, _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params
+from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, opacity, preview_params
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
-from .shapes import hit_gprim
+from .shapes import hit_gprim, surface
 from .surface_lights import sample_surface, shadow_ray, surface_emission
-from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_OPACITY,
-                     MF_ROUGH, MI_MODEL)
+from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_ROUGH,
+                     MI_MODEL, MI_SCALAR_TEX, S_OPACITY)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
                     hit_of, intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
@@ -82,7 +82,7 @@ def vertex_bsdf(S, sp):
     mat = sp.mat
     kd = sp.kd
     if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or sp.model == D.PREVIEW_SURFACE):
-        diff, f0, f90, alpha = preview_params(S, mat, kd, sp.ks)
+        diff, f0, f90, alpha = preview_params(S, mat, kd, sp.ks, sp.rmo)
         if F_CLEARCOAT:
             ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001)
             return preview_bsdf(diff, f0, f90, alpha, np.float64(mf[mat, MF_CLEARCOAT]), ca * ca)
@@ -202,8 +202,12 @@ def shadow_transmittance(S, L, tr, o, d, smax, time):
         if not intersect1_surfaces(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
             return vis
         placed_hit(L, tr.u)
-        mat = hit_gprim(S, hit_of(tr.f, tr.u))[2]
-        a = float(S.mat_f[mat, MF_OPACITY])
+        hit = hit_of(tr.f, tr.u)
+        mat = hit_gprim(S, hit)[2]
+        st = (0.0, 0.0)
+        if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:      # (its texture at the hit)
+            st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
+        a = opacity(S, mat, st)
         if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE or a >= 1.0:
             return 0.0
         vis *= 1.0 - a
@@ -312,12 +316,12 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         p, ng, ns = sp.p, sp.ng, sp.ns
         ul = sample_1d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LOBE))
         if F_OPACITY and sp.model == D.PREVIEW_SURFACE:
-            opacity = float(mf[sp.mat, MF_OPACITY])
-            if opacity < 1.0:
-                if ul >= opacity:                 # not there: continue straight on, no bounce
+            presence = sp.rmo[2]
+            if presence < 1.0:
+                if ul >= presence:                # not there: continue straight on, no bounce
                     o = _origin(p, (-ng[0], -ng[1], -ng[2]), osc)
                     continue
-                ul = min(ul / opacity, 0.99999994)
+                ul = min(ul / presence, 0.99999994)
         if F_EMISSION:
             Lo = _add(Lo, T, hit_emission(S, L, tr, sp, d, time, prev))
         if depth == max_depth:

@@ -40,13 +40,22 @@ def _texel(S, tid, x, y, c):
     yi, oky = _wrap(y, h, S.tex_i[tid, TI_WRAP_T])
     if not (okx and oky):
         return 0.0
-    cc = c if c < ch else (0 if ch < 3 else ch - 1)
-    return S.tex_data[off + (yi * w + xi) * ch + cc]
+    return S.tex_data[off + (yi * w + xi) * ch + c]
+
+
+@nb.njit(**INLINE_JIT)
+def _source_channel(c, ch):
+    """The channel of a texel of `ch` channels that a UsdUVTexture's output channel c (0-3: r, g, b, a) reads,
+    or -1 for 1: one channel is grey (r = g = b), two are grey and alpha, three have no alpha (a = 1)."""
+    if c == 3:
+        return 3 if ch >= 4 else (1 if ch == 2 else -1)
+    return c if ch >= 3 else 0
 
 
 @nb.njit(**SHADING_JIT)
 def sample_texture(S, tid, s, t):
-    """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias."""
+    """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias (the channels of
+    `_source_channel`: one or two channels are grey)."""
     w = S.tex_i[tid, TI_WIDTH]
     h = S.tex_i[tid, TI_HEIGHT]
     x = s * w - 0.5
@@ -60,9 +69,11 @@ def sample_texture(S, tid, s, t):
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
+    ch = S.tex_i[tid, TI_CHANNELS]
     for c in range(3):
-        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, c) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, c)
-             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, c) + fx * fy * _texel(S, tid, ix + 1, iy + 1, c))
+        src = _source_channel(c, ch)
+        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, src) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, src)
+             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
         v = v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
         if c == 0:
             out0 = v
@@ -71,6 +82,28 @@ def sample_texture(S, tid, s, t):
         else:
             out2 = v
     return (out0, out1, out2)
+
+
+@nb.njit(**SHADING_JIT)
+def sample_channel(S, tid, s, t, c):
+    """Bilinear lookup of one output channel c (0-3: r, g, b, a; `_source_channel`) at texture coordinates
+    (s, t), with that channel's UsdUVTexture scale and bias: a scalar input's texture."""
+    w = S.tex_i[tid, TI_WIDTH]
+    h = S.tex_i[tid, TI_HEIGHT]
+    src = _source_channel(c, S.tex_i[tid, TI_CHANNELS])
+    v = 1.0
+    if src >= 0:
+        x = s * w - 0.5
+        y = (1.0 - t) * h - 0.5
+        x0 = math.floor(x)
+        y0 = math.floor(y)
+        fx = x - x0
+        fy = y - y0
+        ix = int(x0)
+        iy = int(y0)
+        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, src) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, src)
+             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
+    return v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
 
 
 @nb.njit(**SHADING_JIT)

@@ -7,7 +7,9 @@ Resolution order for a bound material:
 2. Its universal-render-context surface shader if that is a ``UsdPreviewSurface``: constant inputs
    (following material-interface connections), ``UsdUVTexture`` connections on
    ``diffuseColor`` / ``specularColor`` / ``emissiveColor`` (file, wrapS/T, scale, bias, sourceColorSpace,
-   fallback), and ``UsdPrimvarReader_float`` / ``_float3`` connections on any input: the gprim's primvar
+   fallback) and on ``roughness`` / ``metallic`` / ``opacity`` (the channel its r, g, b or a output names:
+   `Material.scalar_textures`), ``opacityThreshold`` (a cut-out), and ``UsdPrimvarReader_float`` / ``_float3``
+   connections on any input: the gprim's primvar
    ``varname`` (found with inheritance; its ``fallback`` where the gprim has none), so that one material
    gives each gprim its own value (`MaterialTable.bound`).
 3. Anything else (MaterialX-only networks, unknown shader ids, missing surface) -> a warning and
@@ -39,6 +41,9 @@ PREVIEW_ROUGHNESS = 0.5              # UsdPreviewSurface roughness where unautho
 _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
 _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture',
                    'emissiveColor': 'emission_texture'}
+# scalar inputs a UsdUVTexture channel may drive: their place in Material.scalar_textures / scalar_channels
+_SCALAR_TEXTURES = {'roughness': 0, 'metallic': 1, 'opacity': 2}
+_CHANNELS = {'r': 0, 'g': 1, 'b': 2, 'a': 3}
 # UsdPrimvarReader ids -> the kind of value they read (`typed`); a reader feeds an input of its own kind
 _READERS = {'UsdPrimvarReader_float': 'float', 'UsdPrimvarReader_float3': 'color3', 'UsdPrimvarReader_normal': 'color3',
             'UsdPrimvarReader_point': 'color3', 'UsdPrimvarReader_vector': 'color3'}
@@ -274,6 +279,7 @@ class MaterialTable:
                 ('diffuseColor', 'diffuse', 'color3'), ('specularColor', 'specular', 'color3'),
                 ('emissiveColor', 'emission', 'color3'), ('roughness', 'roughness', 'float'),
                 ('metallic', 'metallic', 'float'), ('ior', 'ior', 'float'), ('opacity', 'opacity', 'float'),
+                ('opacityThreshold', 'opacity_threshold', 'float'),
                 ('clearcoat', 'clearcoat', 'float'), ('clearcoatRoughness', 'clearcoat_roughness', 'float'),
                 ('useSpecularWorkflow', 'use_specular_workflow', 'float')):
             value, source = self._input(shader, name, kind)
@@ -284,7 +290,9 @@ class MaterialTable:
                         setattr(m, _TEXTURE_FIELDS[name], index)
                         setattr(m, field, (1.0, 1.0, 1.0))
                     else:
-                        setattr(m, field, fallback)
+                        setattr(m, field, fallback[:3])
+                elif name in _SCALAR_TEXTURES and source.GetShaderId() == 'UsdUVTexture':
+                    self._scalar_texture(m, shader, name, field, source)
                 elif source.GetShaderId() in _READERS and _READERS[source.GetShaderId()] == kind and \
                         field != 'use_specular_workflow':
                     self._primvar_reader(source, field, kind)
@@ -295,6 +303,26 @@ class MaterialTable:
             if value is not None:
                 setattr(m, field, bool(value) if field == 'use_specular_workflow' else value)
         return m
+
+    def _scalar_texture(self, m: Material, shader: UsdShade.Shader, name: str, field: str,
+                        tex: UsdShade.Shader) -> None:
+        """A scalar input (roughness, metallic, opacity) driven by the r, g, b or a output of UsdUVTexture `tex`:
+        the texture and the channel multiply the input's value, 1 (`kernel/materials.scalars`); the channel of
+        the texture's fallback where its file cannot be read.  An `rgb` output gives its r, as a float input
+        reads the first component of a float3."""
+        index, fallback = self._uv_texture(tex)
+        output = None
+        for attr in shader.GetInput(name).GetValueProducingAttributes():
+            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+                output = UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
+        channel = _CHANNELS.get(output, 0)
+        if index < 0:
+            setattr(m, field, float(fallback[channel]))
+            return
+        k = _SCALAR_TEXTURES[name]
+        m.scalar_textures = tuple(index if j == k else t for j, t in enumerate(m.scalar_textures))
+        m.scalar_channels = tuple(channel if j == k else c for j, c in enumerate(m.scalar_channels))
+        setattr(m, field, 1.0)
 
     def _primvar_reader(self, reader: UsdShade.Shader, field: str, kind: str) -> None:
         """Record that Material field `field` reads the primvar a UsdPrimvarReader names (`bound` reads it
@@ -334,11 +362,11 @@ class MaterialTable:
 
     # ------------------------------------------------------------------ textures
     def _uv_texture(self, tex: UsdShade.Shader) -> tuple[int, tuple]:
-        """(texture index or -1, constant colour to use when the file cannot be read)."""
+        """(texture index or -1, the rgba to use when the file cannot be read: its fallback)."""
         def value(name, default, kind='token'):
             v, _ = self._input(tex, name, kind)
             return default if v is None else v
-        fallback = value('fallback', (0.0, 0.0, 0.0, 1.0), 'float4')[:3]
+        fallback = value('fallback', (0.0, 0.0, 0.0, 1.0), 'float4')
         asset = value('file', None, 'asset')
         if asset is None or not asset.path:
             self.warn(f'{tex.GetPath()}: UsdUVTexture without inputs:file; using its fallback')

@@ -1,0 +1,191 @@
+"""UsdPreviewSurface roughness, metallic and opacity driven by a UsdUVTexture's r, g, b or a output (`usd/materials.py`,
+`kernel/materials.scalars`), and opacityThreshold: a cut-out.  A texture of one value per channel renders as that
+value authored on the input (to float32's rounding of the bilinear weights); the channel each output reads from
+an image of 1 to 4 channels is the spec's; a cut-out renders as the geometry cut."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+
+from rtc.renderer.host.render import Renderer
+from rtc.renderer.options import RenderOptions
+from rtc.renderer.usd.stage import read_stage
+
+CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
+CHANNELS = (0.9, 0.2, 0.7, 0.5)          # r, g, b, a of the constant image
+
+
+def _exr(path, pixels):
+    import OpenImageIO as oiio
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], 'float'))
+    out.write_image(pixels)
+    out.close()
+    return str(path)
+
+
+def _quad(st, path, x0, x1, z, y=0.0):
+    mesh = UsdGeom.Mesh.Define(st, path)
+    mesh.CreatePointsAttr([(x0, y, z[0]), (x1, y, z[0]), (x1, y, z[1]), (x0, y, z[1])])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    pv = UsdGeom.PrimvarsAPI(mesh).CreatePrimvar('st', Sdf.ValueTypeNames.TexCoord2fArray, UsdGeom.Tokens.vertex)
+    pv.Set([(0, 0), (1, 0), (1, 1), (0, 1)])
+    return mesh
+
+
+def _material(st, path, constants=None, textured=None, image=None):
+    """A UsdPreviewSurface with `constants` {input: value} and `textured` {input: output of the UsdUVTexture
+    reading `image` (raw colour space)}."""
+    mat = UsdShade.Material.Define(st, path)
+    sh = UsdShade.Shader.Define(st, f'{path}/Surface')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    for name, value in (constants or {}).items():
+        kind = Sdf.ValueTypeNames.Color3f if isinstance(value, tuple) else Sdf.ValueTypeNames.Float
+        sh.CreateInput(name, kind).Set(value)
+    if textured:
+        tex = UsdShade.Shader.Define(st, f'{path}/Tex')
+        tex.CreateIdAttr('UsdUVTexture')
+        tex.CreateInput('file', Sdf.ValueTypeNames.Asset).Set(image)
+        tex.CreateInput('sourceColorSpace', Sdf.ValueTypeNames.Token).Set('raw')
+        tex.CreateInput('fallback', Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(0.3, 0.4, 0.6, 0.8))
+        for name, output in textured.items():
+            sh.CreateInput(name, Sdf.ValueTypeNames.Float).ConnectToSource(
+                tex.CreateOutput(output, Sdf.ValueTypeNames.Float))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    return mat
+
+
+def _lit(st):
+    UsdGeom.SetStageUpAxis(st, 'Y')
+    light = UsdLux.RectLight.Define(st, '/Light')
+    light.CreateIntensityAttr(20.0)
+    light.CreateWidthAttr(1.0)
+    light.CreateHeightAttr(1.0)
+    light.AddTranslateOp().Set(Gf.Vec3d(0.4, 2.0, 0.3))
+    light.AddRotateXOp().Set(-90.0)
+    cam = UsdGeom.Camera.Define(st, '/Cam')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 3.0, 3.0))
+    cam.AddRotateXOp().Set(-45.0)
+    return st
+
+
+def _render(st, integrator, spp=4):
+    with Renderer(read_stage(st), threads=1) as r:
+        return r.render(RenderOptions(width=48, height=36, spp=spp, integrator=integrator, max_depth=3,
+                                      threads=1)).image.astype(np.float64)
+
+
+def _metal_plane(tmp_path, textured: bool):
+    st = Usd.Stage.CreateInMemory()
+    image = _exr(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
+    if textured:
+        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3)}, {'roughness': 'g', 'metallic': 'b'}, image)
+    else:
+        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3), 'roughness': CHANNELS[1],
+                                   'metallic': CHANNELS[2]})
+    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/P', -1.5, 1.5, (-1.5, 1.5)).GetPrim()).Bind(mat)
+    return _lit(st)
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_roughness_and_metallic_textures_render_as_their_channels_authored(tmp_path, integrator):
+    a, b = _render(_metal_plane(tmp_path, True), integrator), _render(_metal_plane(tmp_path, False), integrator)
+    assert b.max() > 0.05
+    assert np.abs(a - b).max() <= 1e-4 * b.max()
+
+
+def test_the_reader_records_texture_and_channel_and_the_fallback_channel(tmp_path):
+    st = Usd.Stage.CreateInMemory()
+    image = _exr(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
+    _material(st, '/M', textured={'roughness': 'g', 'metallic': 'b', 'opacity': 'a'}, image=image)
+    _material(st, '/Missing', textured={'roughness': 'g', 'opacity': 'a'}, image=str(tmp_path / 'none.exr'))
+    for path in ('/A', '/B'):
+        mesh = _quad(st, path, -1, 1, (-1, 1))
+        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(UsdShade.Material.Get(st, '/M' if path == '/A'
+                                                                                     else '/Missing'))
+    desc = read_stage(st)
+    m = {g.path: desc.materials[g.material] for c in desc.containers for g in c.gprims}
+    a, b = m['/A'], m['/B']
+    assert a.scalar_textures[0] >= 0 and a.scalar_textures == (a.scalar_textures[0],) * 3
+    assert a.scalar_channels == (1, 2, 3) and (a.roughness, a.metallic, a.opacity) == (1.0, 1.0, 1.0)
+    assert b.scalar_textures == (-1, -1, -1)
+    assert (b.roughness, b.opacity) == pytest.approx((0.4, 0.8))            # the fallback's g and a
+    assert any('/Missing/Tex: texture' in w and 'not found' in w for w in desc.warnings)
+    assert not [w for w in desc.warnings if 'not supported' in w]
+
+
+@pytest.mark.parametrize('channels, expect', [
+    (1, lambda px: (px[0], px[0], px[0], 1.0)),            # grey: r = g = b, no alpha
+    (2, lambda px: (px[0], px[0], px[0], px[1])),          # grey and alpha
+    (3, lambda px: (px[0], px[1], px[2], 1.0)),            # no alpha
+    (4, lambda px: tuple(px)),
+])
+def test_each_output_reads_the_specs_channel_of_an_image(tmp_path, channels, expect):
+    """`kernel/textures.sample_channel` at a texel's centre: that texel's value of the channel each output reads
+    (UsdUVTexture: a one-channel image is grey, two are grey and alpha, three have an alpha of 1)."""
+    from rtc.renderer.host.build import build
+    from rtc.renderer.kernel.textures import sample_channel
+    rng = np.random.default_rng(channels)
+    pixels = rng.uniform(0.1, 0.9, (2, 2, channels)).astype(np.float32)
+    st = Usd.Stage.CreateInMemory()
+    mat = _material(st, '/M', textured={'roughness': 'r'}, image=_exr(tmp_path / f'c{channels}.exr', pixels))
+    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/A', -1, 1, (-1, 1)).GetPrim()).Bind(mat)
+    _lit(st)
+    built = build(read_stage(st))
+    try:
+        S = built.data
+        tid = int(S.mat_i[:, 5].max())                       # (the one texture)
+        for row, col in ((0, 0), (1, 1), (0, 1)):
+            s, t = (col + 0.5) / 2, 1.0 - (row + 0.5) / 2     # (t up: row 0 is the top)
+            got = [sample_channel(S, tid, s, t, c) for c in range(4)]
+            assert got == pytest.approx(expect(pixels[row, col].astype(np.float64)), abs=1e-6)
+    finally:
+        built.close()
+
+
+def _cutout(tmp_path, cut: bool, glow: bool):
+    """A white quad over a red floor; `cut`: the quad is twice as wide and its left half cut away (alpha 0.2
+    under an opacityThreshold of 0.5, its right half alpha 0.8: opaque), else only the right half is there.
+    `glow`: the floor emits its red and reflects nothing (no shadow on it)."""
+    st = Usd.Stage.CreateInMemory()
+    floor = _material(st, '/Red', {'diffuseColor': (0.0, 0.0, 0.0), 'emissiveColor': (0.8, 0.1, 0.1)} if glow
+                      else {'diffuseColor': (0.8, 0.1, 0.1)})
+    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/Floor', -3, 3, (-3, 3)).GetPrim()).Bind(floor)
+    if cut:
+        image = _exr(tmp_path / 'cut.exr', np.array([[[1, 1, 1, 0.2], [1, 1, 1, 0.8]]], np.float32))
+        mat = _material(st, '/White', {'diffuseColor': (0.9, 0.9, 0.9), 'opacityThreshold': 0.5},
+                        {'opacity': 'a'}, image)
+        quad = _quad(st, '/Card', -0.8, 0.8, (-0.5, 0.5), y=0.4)
+    else:
+        mat = _material(st, '/White', {'diffuseColor': (0.9, 0.9, 0.9)})
+        quad = _quad(st, '/Card', 0.0, 0.8, (-0.5, 0.5), y=0.4)
+    UsdShade.MaterialBindingAPI.Apply(quad.GetPrim()).Bind(mat)
+    return _lit(st)
+
+
+@pytest.mark.parametrize('integrator, glow', [('path', False), ('path', True), ('cook', True)])
+def test_an_opacity_threshold_cuts_the_surface_out(tmp_path, integrator, glow):
+    """Out of camera rays, and (path) of shadow rays: the cook integrator's shadow rays see every surface as
+    opaque (as they see a constant opacity < 1), so it is compared on a floor that glows, where no shadow falls.
+    Bilinear lookups blur the cut over one texel's width (the texture is 2 texels wide): the images are compared
+    away from it."""
+    a = _render(_cutout(tmp_path, True, glow), integrator, spp=16)
+    b = _render(_cutout(tmp_path, False, glow), integrator, spp=16)
+    assert b[..., 0].mean() > 0.05
+    cols = np.r_[0:18, 30:48]                                 # away from the cut's blurred band
+    assert np.abs(a[:, cols] - b[:, cols]).mean() <= 0.03 * b[:, cols].mean()
+    assert a[:, cols].mean() == pytest.approx(b[:, cols].mean(), rel=0.02)
+
+
+def test_roughness_test_usdz_reads_its_roughness_textures():
+    """The corpus's RoughnessTest.usdz: three materials whose roughness is a texture's channel."""
+    found = sorted(CORPUS.rglob('RoughnessTest.usdz')) if CORPUS.is_dir() else []
+    if not found:
+        pytest.skip('the shared corpus is not here')
+    desc = read_stage(str(found[0]))
+    tex = [m for m in desc.materials if m.path.split('/')[-1].startswith('Tex')]
+    assert len(tex) == 3 and all(m.scalar_textures[0] >= 0 and m.roughness == 1.0 for m in tex)
+    assert not [w for w in desc.warnings if 'not supported' in w]
