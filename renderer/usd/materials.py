@@ -302,6 +302,12 @@ class MaterialTable:
                 continue
             if value is not None:
                 setattr(m, field, bool(value) if field == 'use_specular_workflow' else value)
+        for name in ('normal', 'displacement'):        # (read by Storm; a surface's own geometry here)
+            source = self._input(shader, name, 'color3' if name == 'normal' else 'float')[1]
+            if source is not None:
+                self.warn(f'{path}: inputs:{name} is driven by {source.GetShaderId() or "a shader"} '
+                          f'({source.GetPath()}), which is not supported; the surface\'s own '
+                          f'{"normals" if name == "normal" else "shape"} used')
         return m
 
     def _scalar_texture(self, m: Material, shader: UsdShade.Shader, name: str, field: str,

@@ -180,6 +180,22 @@ def test_an_opacity_threshold_cuts_the_surface_out(tmp_path, integrator, glow):
     assert a[:, cols].mean() == pytest.approx(b[:, cols].mean(), rel=0.02)
 
 
+def test_a_normal_map_is_named_in_a_warning(tmp_path):
+    """A normal map (Storm reads it; rtc shades the surface's own normals) is not dropped silently."""
+    st = Usd.Stage.CreateInMemory()
+    image = _exr(tmp_path / 'n.exr', np.broadcast_to((0.5, 0.5, 1.0), (2, 2, 3)))
+    mat = _material(st, '/M', {'diffuseColor': (0.5, 0.5, 0.5)})
+    tex = UsdShade.Shader.Define(st, '/M/Normals')
+    tex.CreateIdAttr('UsdUVTexture')
+    tex.CreateInput('file', Sdf.ValueTypeNames.Asset).Set(image)
+    UsdShade.Shader.Get(st, '/M/Surface').CreateInput('normal', Sdf.ValueTypeNames.Normal3f).ConnectToSource(
+        tex.CreateOutput('rgb', Sdf.ValueTypeNames.Float3))
+    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/A', -1, 1, (-1, 1)).GetPrim()).Bind(mat)
+    desc = read_stage(st)
+    assert any(w.startswith('/M: inputs:normal is driven by UsdUVTexture (/M/Normals), which is not supported; '
+                            "the surface's own normals used") for w in desc.warnings), desc.warnings
+
+
 def test_roughness_test_usdz_reads_its_roughness_textures():
     """The corpus's RoughnessTest.usdz: three materials whose roughness is a texture's channel."""
     found = sorted(CORPUS.rglob('RoughnessTest.usdz')) if CORPUS.is_dir() else []
