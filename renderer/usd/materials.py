@@ -129,6 +129,16 @@ class MaterialTable:
             self._converted[key] = (converted, tuple(self._reading))
         return self._converted[key]
 
+    def _values(self, pv: UsdGeom.Primvar, consequence: str) -> np.ndarray:
+        """A primvar's values as float64 (an empty or ragged array where they are not numbers): its flattened
+        array (`geometry.flattened`: warned where it cannot be), or the one value of a constant primvar of a
+        scalar type (``color3f primvars:displayColor = (0.1, 0.1, 0.1)``, which Storm reads as well)."""
+        values = flattened(pv, self.time, self.warn, consequence) if pv.GetTypeName().isArray else [pv.Get(self.time)]
+        try:
+            return np.asarray([] if values is None else values, np.float64)
+        except (TypeError, ValueError):
+            return np.zeros((1, 0))
+
     def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput):
         """The value a UsdPrimvarReader reads on `gprim` (a GeomSubset: its mesh's): its primvar r.varname
         (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
@@ -141,14 +151,7 @@ class MaterialTable:
         if not pv or not pv.HasAuthoredValue():
             return r.fallback
         name = pv.GetAttr().GetName()
-        if pv.GetTypeName().isArray:
-            values = flattened(pv, self.time, self.warn, f"{r.reader}'s fallback used")
-        else:                                            # (a constant primvar of a scalar type)
-            values = [pv.Get(self.time)]
-        try:
-            v = np.asarray([] if values is None else values, np.float64)
-        except (TypeError, ValueError):
-            v = np.zeros((1, 0))
+        v = self._values(pv, f"{r.reader}'s fallback used")
         width = 3 if r.kind == 'color3' else 1
         v = v.reshape(len(v), -1) if v.ndim else v.reshape(0, 1)
         if len(v) == 0 or v.shape[1] != width or not np.all(np.isfinite(v)):
@@ -181,8 +184,7 @@ class MaterialTable:
         colour = GREY
         pv = UsdGeom.PrimvarsAPI(gprim).FindPrimvarWithInheritance('displayColor')
         if pv and pv.HasAuthoredValue():
-            values = flattened(pv, self.time, self.warn, 'grey used instead')
-            values = np.asarray([] if values is None else values, np.float64)
+            values = self._values(pv, 'grey used instead')
             if values.ndim != 2 or values.shape[1] != 3:
                 if values.size:
                     self.warn(f'{gprim.GetPath()}: {pv.GetAttr().GetName()} is not a list of RGB '

@@ -240,3 +240,20 @@ def test_usd_wg_pyramids_read_their_corner_colours(name):
     assert not [w for w in desc.warnings if 'not supported' in w]
     gprims = [g for c in desc.containers for g in c.gprims]
     assert gprims and all(desc.materials[g.material].vertex_colors and g.colors is not None for g in gprims)
+
+
+@pytest.mark.parametrize('reader', [False, True])
+def test_a_constant_primvar_of_a_scalar_type_is_read(reader):
+    """`color3f primvars:displayColor = (...)` (not an array: OpenUSD's testUsdImagingGLInstancePrimvars authors
+    it so, and Storm draws it): its colour, for the displayColor fallback and for a primvar reader alike."""
+    st = Usd.Stage.CreateInMemory()
+    parent = UsdGeom.Xform.Define(st, '/P')                     # (a Gprim's own displayColor is declared an array)
+    UsdGeom.PrimvarsAPI(parent.GetPrim()).CreatePrimvar('displayColor', Sdf.ValueTypeNames.Color3f).Set(
+        Gf.Vec3f(*RED))
+    s = UsdGeom.Sphere.Define(st, '/P/A')
+    if reader:
+        UsdShade.MaterialBindingAPI.Apply(s.GetPrim()).Bind(
+            _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', 'displayColor', None)}))
+    desc = read_stage(st)
+    assert _materials(desc)['/P/A'].diffuse == pytest.approx(RED)
+    assert not [w for w in desc.warnings if 'displayColor' in w]
