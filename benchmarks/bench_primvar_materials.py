@@ -9,7 +9,8 @@ marks them as needing material resolution, and siblings that bind alike share on
 (the material's diffuseColor reads `tint` through a UsdPrimvarReader_float3: each instance its own
 material, resolved on its own).  Reported: the median seconds of `read_stage` over `--rounds` (cases
 alternating within each round), the materials and material sets read.  Run it at two commits to compare them
-(the stages are built the same way at each).
+(the stages are built the same way at each).  Then one PointInstancer of 10 N instances whose material
+reads `tint`, which it gives each instance from 0 (none), 35 or 5,000 distinct values.
 """
 from __future__ import annotations
 
@@ -18,6 +19,8 @@ import statistics
 import sys
 import time
 from pathlib import Path
+
+import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
@@ -53,6 +56,36 @@ def stage(n: int, primvars: bool, read: bool):
     return st
 
 
+def instancer(n: int, distinct: int):
+    """One PointInstancer of n spheres whose material reads `tint`, which the instancer gives each instance from
+    `distinct` values (0: it gives none)."""
+    from pxr import Sdf, Usd, UsdGeom, UsdShade
+    st = Usd.Stage.CreateInMemory()
+    mat = UsdShade.Material.Define(st, '/Looks/M')
+    sh = UsdShade.Shader.Define(st, '/Looks/M/Surface')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    rd = UsdShade.Shader.Define(st, '/Looks/M/Tint')
+    rd.CreateIdAttr('UsdPrimvarReader_float3')
+    rd.CreateInput('varname', Sdf.ValueTypeNames.String).Set('tint')
+    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).ConnectToSource(
+        rd.CreateOutput('result', Sdf.ValueTypeNames.Float3))
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    pi = UsdGeom.PointInstancer.Define(st, '/World/PI')
+    side = int(n ** 0.5) + 1
+    k = np.arange(n)
+    pi.CreatePositionsAttr(np.column_stack([3.0 * (k % side), np.zeros(n), 3.0 * (k // side)]).astype(np.float32))
+    pi.CreateProtoIndicesAttr(np.zeros(n, np.int32))
+    ball = UsdGeom.Sphere.Define(st, '/World/PI/Protos/Ball')
+    pi.CreatePrototypesRel().SetTargets([ball.GetPath()])
+    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(mat)
+    if distinct:
+        j = k % distinct
+        values = np.column_stack([j / distinct, np.full(n, 0.5), 1.0 - j / distinct]).astype(np.float32)
+        UsdGeom.PrimvarsAPI(pi.GetPrim()).CreatePrimvar('tint', Sdf.ValueTypeNames.Color3fArray,
+                                                        UsdGeom.Tokens.varying).Set(values)
+    return st
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--instances', type=int, default=10_000)
@@ -61,7 +94,10 @@ def main(argv=None) -> int:
     from rtc.renderer.usd.stage import read_stage
     cases = {'plain': (False, False), 'primvars, unread': (True, False), 'primvars, read': (True, True)}
     stages = {name: stage(a.instances, *c) for name, c in cases.items()}
-    times = {name: [] for name in cases}
+    n_pi = a.instances * 10
+    for distinct in (0, 35, 5000):
+        stages[f'PI, {distinct} values'] = instancer(n_pi, distinct)
+    times = {name: [] for name in stages}
     counts = {}
     for _ in range(a.rounds):
         for name, st in stages.items():
@@ -69,11 +105,12 @@ def main(argv=None) -> int:
             desc = read_stage(st)
             times[name].append(time.perf_counter() - t0)
             counts[name] = (len(desc.materials), len(desc.instances.material_sets))
-    base = statistics.median(times['plain'])
-    for name in cases:
+    for name in stages:
+        base = statistics.median(times['plain' if name in cases else 'PI, 0 values'])
         t = statistics.median(times[name])
-        print(f'{name:>18}: read_stage {t:.3f} s (median of {a.rounds}; {t / base:.2f}x plain), '
-              f'{counts[name][0]} materials, {counts[name][1]} material sets, {a.instances} instances')
+        print(f'{name:>18}: read_stage {t:.3f} s (median of {a.rounds}; {t / base:.2f}x '
+              f'{"plain" if name in cases else "no primvars"}), {counts[name][0]} materials, {counts[name][1]} '
+              f'material sets, {a.instances if name in cases else n_pi} instances')
     return 0
 
 

@@ -46,6 +46,7 @@ from pxr import Gf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade, UsdSkel, Vt
 
 from ..errors import SceneError
 from .geometry import converter_for
+from .instance_primvars import instance_primvars, reader_varnames
 from .lights import LIGHT_TYPES
 
 Warn = Callable[[str], None]
@@ -114,7 +115,8 @@ class Node:
     gprim_xf: np.ndarray = None
     ref_xf: np.ndarray = None
     light_xf: np.ndarray = None
-    pi_rows: list = field(default_factory=list)       # per instancer: (children (n,), matrices (n, K, 4, 4))
+    pi_rows: list = field(default_factory=list)       # per instancer: (children (n,), matrices (n, K, 4, 4),
+    #                                                   primvars per instance or None: `instance_primvars`)
 
 
 @dataclass
@@ -148,6 +150,9 @@ class InstanceGraph:
         # namespace maps: (prefix in the container, prefix on the composed stage, needs material
         # resolution, Ref.binding_key for instances placed directly on the stage)
         self.maps: list[tuple[str, str, bool, Optional[tuple]]] = [('/', '/', False, None)]
+        self.map_primvars: dict[int, dict] = {}   # map id -> {name: values} PointInstancers give its placements
+        self._primvar_maps: dict[tuple, int] = {}
+        self._varnames: Optional[frozenset] = None
         self.collection_bindings = False     # some walked prim authors a collection-based binding
         self._kinds: dict = {}
         self._prototypes: dict[Usd.Prim, tuple[int, str]] = {}
@@ -427,7 +432,27 @@ class InstanceGraph:
         child = np.where(bad, -1, table[np.clip(indices, 0, len(table) - 1)])
         keep &= child >= 0
         to_node = relative(node, [inst.prim])[0]                                      # (K, 4, 4)
-        return child[keep], to_node[None] @ xf[keep]
+        given = instance_primvars(inst.prim, len(indices), t, self.warn, self._reader_varnames)
+        kept = None if given is None else [given[j] for j in np.flatnonzero(keep)]
+        return child[keep], to_node[None] @ xf[keep], kept
+
+    def _reader_varnames(self) -> frozenset:
+        if self._varnames is None:
+            self._varnames = reader_varnames(self.stage)
+        return self._varnames
+
+    def _primvar_map(self, mi: int, given: tuple, owner: str) -> int:
+        """The namespace map of a PointInstancer's instance placed under map mi, given the primvars `given`
+        (`instance_primvars`): map mi's paths, resolved on their own, with those primvars (`map_primvars`;
+        instances given the same values share one)."""
+        key = (mi, given, owner)
+        if key not in self._primvar_maps:
+            src, dst, _, _ = self.maps[mi]
+            self.maps.append((src, dst, True, None))
+            self.map_primvars[len(self.maps) - 1] = {**self.map_primvars.get(mi, {}),
+                                                     **{name: (v, owner) for name, v in given}}
+            self._primvar_maps[key] = len(self.maps) - 1
+        return self._primvar_maps[key]
 
     def split_moving_gprims(self) -> None:
         """Give every gprim whose container-relative transform changes over the shutter its own
@@ -472,7 +497,7 @@ class InstanceGraph:
         if depth > MAX_DEPTH:
             return m
         node = self.nodes[n]
-        children = [r.child for r in node.refs] + [int(c) for child, _ in node.pi_rows for c in child]
+        children = [r.child for r in node.refs] + [int(c) for child, *_ in node.pi_rows for c in child]
         total = m
         if children:
             ids, k = np.unique(np.asarray(children, np.int64), return_counts=True)
@@ -496,13 +521,15 @@ class InstanceGraph:
                            (world[:, None] @ node.ref_xf[None]).reshape(-1, *world.shape[1:]),
                            np.where(own[None] == INHERIT, purpose[:, None], own[None]).ravel(),
                            *self._descend(maps, node.refs)))
-        for inst, (child, rel) in zip(node.instancers, node.pi_rows):
+        for inst, (child, rel, given) in zip(node.instancers, node.pi_rows):
             if len(child):                  # PI instances inherit the parent's namespace map
                 k = len(child)
                 own_path = str(inst.prim.GetPath())
                 lab = [self._map_path(mi, own_path) for mi in maps.tolist()]
+                sub = np.repeat(maps, k) if given is None else np.array(   # (or one with the primvars it gives)
+                    [self._primvar_map(mi, g, lab[r]) for r, mi in enumerate(maps.tolist()) for g in given], np.int64)
                 groups.append((np.tile(child, m), (world[:, None] @ rel[None]).reshape(-1, *rel.shape[1:]),
-                               np.zeros(m * k, np.int8), np.repeat(maps, k), [x for x in lab for _ in range(k)]))
+                               np.zeros(m * k, np.int8), sub, [x for x in lab for _ in range(k)]))
         if not groups:
             return
         child = np.concatenate([g[0] for g in groups])
@@ -549,4 +576,6 @@ class InstanceGraph:
                     self.maps += [(r.prototype, lab, needs or r.needs_binding, r.binding_key if top else None)
                                   for r, lab in zip(refs, labs) if r.prototype is not None]
                 new[row, is_native] = np.arange(start, len(self.maps))
+                if mi in self.map_primvars:           # (what an instancer gave is inherited by what it places)
+                    self.map_primvars.update({j: self.map_primvars[mi] for j in range(start, len(self.maps))})
         return new.ravel(), labels

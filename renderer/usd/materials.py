@@ -95,15 +95,17 @@ class MaterialTable:
         self._texture_index: dict = {}  # (file, colour space, wraps, scale, bias, light) -> index
 
     # ------------------------------------------------------------------ entry points
-    def bound(self, material: UsdShade.Material, gprim: Usd.Prim | None = None) -> int | None:
+    def bound(self, material: UsdShade.Material, gprim: Usd.Prim | None = None,
+              given: dict | None = None) -> int | None:
         """Index of a material bound to `gprim`, or None when it has no usable surface (warned once).  A
         material whose inputs read primvars (`reads_primvars`) gives one material per set of values its
-        gprims hold (`_primvar_value`), as Storm binds each gprim's primvars to the shader."""
+        gprims hold (`_primvar_value`; `given`: the primvars a PointInstancer gives the gprim's instance,
+        `instance_primvars`), as Storm binds each gprim's primvars to the shader."""
         key = str(material.GetPath())
         converted, inputs = self._template(material)
         if converted is None:
             return None
-        values = tuple(self._primvar_value(gprim, r) for r in inputs)
+        values = tuple(self._primvar_value(gprim, r, given) for r in inputs)
         if (key, values) not in self._index:
             fields = {}
             for r, v in zip(inputs, values):
@@ -139,7 +141,20 @@ class MaterialTable:
         except (TypeError, ValueError):
             return np.zeros((1, 0))
 
-    def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput):
+    @staticmethod
+    def _given_or_found(prim: Usd.Prim, name: str, given: dict | None):
+        """(values a PointInstancer gives prim's instance (1, w), or None; else the primvar found on prim with
+        inheritance, or None): the instancer's value is closer than one authored on the instancer or above it,
+        farther than one authored on the prototype's own prims."""
+        pv = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(name)
+        found = pv if pv and pv.HasAuthoredValue() else None
+        if given and name in given:
+            values, owner = given[name]
+            if found is None or Sdf.Path(owner).HasPrefix(found.GetAttr().GetPrim().GetPath()):
+                return np.asarray([values], np.float64), None
+        return None, found
+
+    def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput, given: dict | None = None):
         """The value a UsdPrimvarReader reads on `gprim` (a GeomSubset: its mesh's): its primvar r.varname
         (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
         curves' displayColor that varies over them (their per-corner colours, `geometry.varying_display_color`);
@@ -147,11 +162,11 @@ class MaterialTable:
         if gprim is None or not r.varname:
             return r.fallback
         prim = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
-        pv = UsdGeom.PrimvarsAPI(prim).FindPrimvarWithInheritance(r.varname)
-        if not pv or not pv.HasAuthoredValue():
+        v, pv = self._given_or_found(prim, r.varname, given)
+        if v is None and pv is None:
             return r.fallback
-        name = pv.GetAttr().GetName()
-        v = self._values(pv, f"{r.reader}'s fallback used")
+        name = f'primvars:{r.varname}' if pv is None else pv.GetAttr().GetName()
+        v = self._values(pv, f"{r.reader}'s fallback used") if pv is not None else v
         width = 3 if r.kind == 'color3' else 1
         v = v.reshape(len(v), -1) if v.ndim else v.reshape(0, 1)
         if len(v) == 0 or v.shape[1] != width or not np.all(np.isfinite(v)):
@@ -160,7 +175,7 @@ class MaterialTable:
                 self.warn(f'{prim.GetPath()}: {name} is not a list of finite {what}, as {r.reader} reads it; '
                           'its fallback used')
             return r.fallback
-        if pv.GetInterpolation() != UsdGeom.Tokens.constant and np.any(v != v[0]):
+        if pv is not None and pv.GetInterpolation() != UsdGeom.Tokens.constant and np.any(v != v[0]):
             if r.field == 'diffuse' and r.varname == 'displayColor' and \
                     varying_display_color(prim, self.time) is not None:
                 return 'per corner'
@@ -169,11 +184,11 @@ class MaterialTable:
             v = v.mean(axis=0, keepdims=True)
         return tuple(float(x) for x in v[0]) if width == 3 else float(v[0, 0])
 
-    def fallback(self, gprim: Usd.Prim) -> int:
+    def fallback(self, gprim: Usd.Prim, given: dict | None = None) -> int:
         """The displayColor (or grey) material of a gprim with no usable bound material: a mesh whose
         displayColor varies over it (`geometry.varying_display_color`; a materialBind GeomSubset: its mesh's)
         gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), as Storm draws it; a point
-        cloud's, its colour a point (`Sphere.colors`)."""
+        cloud's, its colour a point (`Sphere.colors`); `given`: as `bound`."""
         mesh = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
         if varying_display_color(mesh, self.time) is not None:
             key = ('displayColor', 'per corner')
@@ -182,13 +197,13 @@ class MaterialTable:
                                                       roughness=1.0, vertex_colors=True))
             return self._index[key]
         colour = GREY
-        pv = UsdGeom.PrimvarsAPI(gprim).FindPrimvarWithInheritance('displayColor')
-        if pv and pv.HasAuthoredValue():
-            values = self._values(pv, 'grey used instead')
+        values, pv = self._given_or_found(gprim, 'displayColor', given)
+        if values is not None or pv is not None:
+            values = self._values(pv, 'grey used instead') if pv is not None else values
             if values.ndim != 2 or values.shape[1] != 3:
                 if values.size:
-                    self.warn(f'{gprim.GetPath()}: {pv.GetAttr().GetName()} is not a list of RGB '
-                              'colours; grey used instead')
+                    name = pv.GetAttr().GetName() if pv is not None else 'primvars:displayColor'
+                    self.warn(f'{gprim.GetPath()}: {name} is not a list of RGB colours; grey used instead')
                 values = np.empty((0, 3))
             if len(values) and np.all(np.isfinite(values)):
                 colour = tuple(float(x) for x in values.mean(axis=0))

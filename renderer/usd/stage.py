@@ -317,7 +317,7 @@ class _Reader:
         # representatives first; a group shares their results unless one bound a material inside it
         is_rep = [g is not None and rep_of[g] == e[0][1] for e in entries for g in (e[2],)]
         result = compute([e for e, r in zip(entries, is_rep) if r])
-        private = set()                  # groups whose representative bound a material inside itself, or reading primvars
+        private = set()                  # groups whose representative bound a material inside itself or reading primvars
         for (key, path, group), r in zip(entries, is_rep):
             if r and key in result:
                 mat = result[key][1]
@@ -337,8 +337,9 @@ class _Reader:
                 continue
             if key in result:
                 prim, mat = result[key]
-                found = self.materials.bound(mat, prim) if mat else None
-                index[key] = found if found is not None else self.materials.fallback(prim)
+                given = graph.map_primvars.get(key[1]) if key[1] is not None else None   # (a PointInstancer's)
+                found = self.materials.bound(mat, prim, given) if mat else None
+                index[key] = found if found is not None else self.materials.fallback(prim, given)
                 glow = mesh_light_radiance(prim, self.tc, self.warn)
                 if glow is not None:                 # UsdLux MeshLightAPI: the mesh emits
                     index[key] = self.materials.emitting(index[key], *glow)
