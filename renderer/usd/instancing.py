@@ -410,7 +410,7 @@ class InstanceGraph:
         instances and bad prototype indices removed, all in numpy."""
         pi, path, t = PI(inst.prim), inst.prim.GetPath(), self.time
         indices = np.asarray(pi.GetProtoIndicesAttr().Get(t) or [], np.int64)
-        empty = (np.zeros(0, np.int64), np.zeros((0, len(times), 4, 4)))
+        empty = (np.zeros(0, np.int64), np.zeros((0, len(times), 4, 4)), None)
         if len(indices) == 0 or not inst.children:
             return empty
         samples = pi.ComputeInstanceTransformsAtTimes([Usd.TimeCode(x) for x in times], t,
