@@ -127,6 +127,7 @@ def test_each_output_reads_the_specs_channel_of_an_image(tmp_path, channels, exp
     """`kernel/textures.sample_channel` at a texel's centre: that texel's value of the channel each output reads
     (UsdUVTexture: a one-channel image is grey, two are grey and alpha, three have an alpha of 1)."""
     from rtc.renderer.host.build import build
+    from rtc.renderer.kernel.tables import MI_SCALAR_TEX, S_ROUGH
     from rtc.renderer.kernel.textures import sample_channel
     rng = np.random.default_rng(channels)
     pixels = rng.uniform(0.1, 0.9, (2, 2, channels)).astype(np.float32)
@@ -137,7 +138,7 @@ def test_each_output_reads_the_specs_channel_of_an_image(tmp_path, channels, exp
     built = build(read_stage(st))
     try:
         S = built.data
-        tid = int(S.mat_i[:, 5].max())                       # (the one texture)
+        tid = int(S.mat_i[:, MI_SCALAR_TEX + S_ROUGH].max())   # (the one texture)
         for row, col in ((0, 0), (1, 1), (0, 1)):
             s, t = (col + 0.5) / 2, 1.0 - (row + 0.5) / 2     # (t up: row 0 is the top)
             got = [sample_channel(S, tid, s, t, c) for c in range(4)]
