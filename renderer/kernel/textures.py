@@ -52,29 +52,36 @@ def _source_channel(c, ch):
     return c if ch >= 3 else 0
 
 
+@nb.njit(**INLINE_JIT)
+def _footprint(S, tid, s, t):
+    """(ix, iy, fx, fy): the texel whose centre is below and left of texture coordinates (s, t) (t up: row 0 of
+    the image is its top) and the bilinear weights of the texel after it."""
+    x = s * S.tex_i[tid, TI_WIDTH] - 0.5
+    y = (1.0 - t) * S.tex_i[tid, TI_HEIGHT] - 0.5
+    x0 = math.floor(x)
+    y0 = math.floor(y)
+    return int(x0), int(y0), x - x0, y - y0
+
+
+@nb.njit(**INLINE_JIT)
+def _bilinear(S, tid, at, src):
+    """Channel src of the texels around footprint `at` (`_footprint`), weighted bilinearly."""
+    ix, iy, fx, fy = at
+    return ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, src) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, src)
+            + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
+
+
 @nb.njit(**SHADING_JIT)
 def sample_texture(S, tid, s, t):
     """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias (the channels of
     `_source_channel`: one or two channels are grey)."""
-    w = S.tex_i[tid, TI_WIDTH]
-    h = S.tex_i[tid, TI_HEIGHT]
-    x = s * w - 0.5
-    y = (1.0 - t) * h - 0.5
-    x0 = math.floor(x)
-    y0 = math.floor(y)
-    fx = x - x0
-    fy = y - y0
-    ix = int(x0)
-    iy = int(y0)
+    at = _footprint(S, tid, s, t)
+    ch = S.tex_i[tid, TI_CHANNELS]
     out0 = 0.0
     out1 = 0.0
     out2 = 0.0
-    ch = S.tex_i[tid, TI_CHANNELS]
     for c in range(3):
-        src = _source_channel(c, ch)
-        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, src) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, src)
-             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
-        v = v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
+        v = _bilinear(S, tid, at, _source_channel(c, ch)) * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
         if c == 0:
             out0 = v
         elif c == 1:
@@ -88,21 +95,8 @@ def sample_texture(S, tid, s, t):
 def sample_channel(S, tid, s, t, c):
     """Bilinear lookup of one output channel c (0-3: r, g, b, a; `_source_channel`) at texture coordinates
     (s, t), with that channel's UsdUVTexture scale and bias: a scalar input's texture."""
-    w = S.tex_i[tid, TI_WIDTH]
-    h = S.tex_i[tid, TI_HEIGHT]
     src = _source_channel(c, S.tex_i[tid, TI_CHANNELS])
-    v = 1.0
-    if src >= 0:
-        x = s * w - 0.5
-        y = (1.0 - t) * h - 0.5
-        x0 = math.floor(x)
-        y0 = math.floor(y)
-        fx = x - x0
-        fy = y - y0
-        ix = int(x0)
-        iy = int(y0)
-        v = ((1 - fx) * (1 - fy) * _texel(S, tid, ix, iy, src) + fx * (1 - fy) * _texel(S, tid, ix + 1, iy, src)
-             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
+    v = _bilinear(S, tid, _footprint(S, tid, s, t), src) if src >= 0 else 1.0
     return v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]
 
 

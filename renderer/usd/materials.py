@@ -168,7 +168,7 @@ class MaterialTable:
         name = f'primvars:{r.varname}' if pv is None else pv.GetAttr().GetName()
         v = self._values(pv, f"{r.reader}'s fallback used") if pv is not None else v
         width = 3 if r.kind == 'color3' else 1
-        v = v.reshape(len(v), -1) if v.ndim else v.reshape(0, 1)
+        v = v.reshape(len(v), -1) if v.size else v.reshape(0, width)     # (an empty array: the fallback)
         if len(v) == 0 or v.shape[1] != width or not np.all(np.isfinite(v)):
             if len(v):
                 what = 'RGB colours' if width == 3 else 'numbers'

@@ -257,3 +257,15 @@ def test_a_constant_primvar_of_a_scalar_type_is_read(reader):
     desc = read_stage(st)
     assert _materials(desc)['/P/A'].diffuse == pytest.approx(RED)
     assert not [w for w in desc.warnings if 'displayColor' in w]
+
+
+def test_an_empty_primvar_gives_the_fallback():
+    """An empty array (the USD fuzzer's seed 491 raised numpy's ValueError from it): the reader's fallback."""
+    st = Usd.Stage.CreateInMemory()
+    mat = _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', 'tint', (0.0, 1.0, 0.0)),
+                                     'roughness': ('UsdPrimvarReader_float', 'rough', 0.25)})
+    s = _sphere(st, '/A', 0.0, mat)
+    UsdGeom.PrimvarsAPI(s.GetPrim()).CreatePrimvar('tint', Sdf.ValueTypeNames.Color3fArray).Set([])
+    UsdGeom.PrimvarsAPI(s.GetPrim()).CreatePrimvar('rough', Sdf.ValueTypeNames.FloatArray).Set([])
+    m = _materials(read_stage(st))['/A']
+    assert m.diffuse == (0.0, 1.0, 0.0) and m.roughness == 0.25
