@@ -131,15 +131,15 @@ class MaterialTable:
             self._converted[key] = (converted, tuple(self._reading))
         return self._converted[key]
 
-    def _values(self, pv: UsdGeom.Primvar, consequence: str) -> np.ndarray:
-        """A primvar's values as float64 (an empty or ragged array where they are not numbers): its flattened
-        array (`geometry.flattened`: warned where it cannot be), or the one value of a constant primvar of a
+    def _values(self, pv: UsdGeom.Primvar, consequence: str) -> np.ndarray | None:
+        """A primvar's values as float64, None where they are not numbers: its flattened array (empty where
+        `geometry.flattened` cannot flatten it, which it warns of), or the one value of a constant primvar of a
         scalar type (``color3f primvars:displayColor = (0.1, 0.1, 0.1)``, which Storm reads as well)."""
         values = flattened(pv, self.time, self.warn, consequence) if pv.GetTypeName().isArray else [pv.Get(self.time)]
         try:
             return np.asarray([] if values is None else values, np.float64)
         except (TypeError, ValueError):
-            return np.zeros((1, 0))
+            return None
 
     @staticmethod
     def _given_or_found(prim: Usd.Prim, name: str, given: dict | None):
@@ -168,12 +168,13 @@ class MaterialTable:
         name = f'primvars:{r.varname}' if pv is None else pv.GetAttr().GetName()
         v = self._values(pv, f"{r.reader}'s fallback used") if pv is not None else v
         width = 3 if r.kind == 'color3' else 1
-        v = v.reshape(len(v), -1) if v.size else v.reshape(0, width)     # (an empty array: the fallback)
-        if len(v) == 0 or v.shape[1] != width or not np.all(np.isfinite(v)):
-            if len(v):
-                what = 'RGB colours' if width == 3 else 'numbers'
-                self.warn(f'{prim.GetPath()}: {name} is not a list of finite {what}, as {r.reader} reads it; '
-                          'its fallback used')
+        if v is not None and v.size == 0:                # (empty: nothing to read)
+            return r.fallback
+        v = None if v is None else v.reshape(len(v), -1)
+        if v is None or v.shape[1] != width or not np.all(np.isfinite(v)):
+            what = 'RGB colours' if width == 3 else 'numbers'
+            self.warn(f'{prim.GetPath()}: {name} is not a list of finite {what}, as {r.reader} reads it; '
+                      'its fallback used')
             return r.fallback
         if pv is not None and pv.GetInterpolation() != UsdGeom.Tokens.constant and np.any(v != v[0]):
             if r.field == 'diffuse' and r.varname == 'displayColor' and \
@@ -200,8 +201,8 @@ class MaterialTable:
         values, pv = self._given_or_found(gprim, 'displayColor', given)
         if values is not None or pv is not None:
             values = self._values(pv, 'grey used instead') if pv is not None else values
-            if values.ndim != 2 or values.shape[1] != 3:
-                if values.size:
+            if values is None or values.ndim != 2 or values.shape[1] != 3:
+                if values is None or values.size:
                     name = pv.GetAttr().GetName() if pv is not None else 'primvars:displayColor'
                     self.warn(f'{gprim.GetPath()}: {name} is not a list of RGB colours; grey used instead')
                 values = np.empty((0, 3))
