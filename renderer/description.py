@@ -199,6 +199,8 @@ class Texture:
     wrap_t: str = 'repeat'
     scale: tuple = (1.0, 1.0, 1.0, 1.0)
     bias: tuple = (0.0, 0.0, 0.0, 0.0)
+    # UsdTransform2d between the texture coordinates and the lookup: s' = a s + b t + c, t' = d s + e t + f
+    transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
 
 # Light types

@@ -182,7 +182,7 @@ def _texture_tables(textures: list[D.Texture]):
         h, w, c = px.shape
         TEXTURE_I.write(tex_i[k], OFFSET=off, WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(t.wrap_s, 0),
                         WRAP_T=WRAP.get(t.wrap_t, 0))
-        TEXTURE_F.write(tex_f[k], SCALE=t.scale, BIAS=t.bias)
+        TEXTURE_F.write(tex_f[k], SCALE=t.scale, BIAS=t.bias, XF=t.transform)
         chunks.append(px.ravel())
         off += px.size
     return tex_i, tex_f, (np.concatenate(chunks) if chunks else np.zeros(1, np.float32))

@@ -11,7 +11,7 @@ import math
 import numba as nb
 
 from .jit import INLINE_JIT, SHADING_JIT
-from .tables import (TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH, TI_WRAP_S, TI_WRAP_T,
+from .tables import (TF_BIAS, TF_SCALE, TF_XF, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH, TI_WRAP_S, TI_WRAP_T,
                      WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR, WRAP_REPEAT as REPEAT)
 
 
@@ -54,8 +54,12 @@ def _source_channel(c, ch):
 
 @nb.njit(**INLINE_JIT)
 def _footprint(S, tid, s, t):
-    """(ix, iy, fx, fy): the texel whose centre is below and left of texture coordinates (s, t) (t up: row 0 of
-    the image is its top) and the bilinear weights of the texel after it."""
+    """(ix, iy, fx, fy): the texel whose centre is below and left of texture coordinates (s, t), mapped by the
+    texture's transform (TF_XF: a UsdTransform2d's), (t up: row 0 of the image is its top) and the bilinear
+    weights of the texel after it."""
+    f = S.tex_f
+    s, t = (f[tid, TF_XF] * s + f[tid, TF_XF + 1] * t + f[tid, TF_XF + 2],
+            f[tid, TF_XF + 3] * s + f[tid, TF_XF + 4] * t + f[tid, TF_XF + 5])
     x = s * S.tex_i[tid, TI_WIDTH] - 0.5
     y = (1.0 - t) * S.tex_i[tid, TI_HEIGHT] - 0.5
     x0 = math.floor(x)

@@ -7,7 +7,7 @@ Resolution order for a bound material:
 2. Its universal-render-context surface shader if that is a ``UsdPreviewSurface``: constant inputs
    (following material-interface connections), ``UsdUVTexture`` connections on
    ``diffuseColor`` / ``specularColor`` / ``emissiveColor`` (file, wrapS/T, scale, bias, sourceColorSpace,
-   fallback) and on ``roughness`` / ``metallic`` / ``opacity`` (the channel its r, g, b or a output names:
+   fallback, a ``UsdTransform2d`` on its st) and on ``roughness`` / ``metallic`` / ``opacity`` (the channel its r, g, b or a output names:
    `Material.scalar_textures`), ``opacityThreshold`` (a cut-out), and ``UsdPrimvarReader_float`` / ``_float3``
    connections on any input: the gprim's primvar
    ``varname`` (found with inheritance; its ``fallback`` where the gprim has none), so that one material
@@ -61,9 +61,9 @@ class PrimvarInput:
 
 
 def typed(value, kind: str):
-    """`value` read as `kind` ('float', 'color3', 'float4', 'asset', 'token'), or None where it is not one: an input or
-    attribute authored with another type than its definition's (a string roughness, a float colour), which
-    Storm, asking for the declared type, ignores."""
+    """`value` read as `kind` ('float', 'float2', 'color3', 'float4', 'asset', 'token'), or None where it is not
+    one: an input or attribute authored with another type than its definition's (a string roughness, a float
+    colour), which Storm, asking for the declared type, ignores."""
     if kind == 'asset':
         return value if isinstance(value, Sdf.AssetPath) else None
     if kind == 'token':
@@ -78,6 +78,8 @@ def typed(value, kind: str):
         return None
     if kind == 'color3':
         return items if len(items) == 3 else None
+    if kind == 'float2':
+        return items if len(items) == 2 else None
     return items if len(items) == 4 else None
 
 
@@ -401,11 +403,34 @@ class MaterialTable:
             wraps.append(w if w in _WRAPS else 'repeat')
         index = self.texture(asset, str(value('sourceColorSpace', 'auto')), *wraps,
                               value('scale', (1.0,) * 4, 'float4'), value('bias', (0.0,) * 4, 'float4'),
-                              str(tex.GetPath()))
+                              str(tex.GetPath()), transform=self._st_transform(tex))
         return index, fallback
 
+    def _st_transform(self, tex: UsdShade.Shader) -> tuple:
+        """The affine map (a, b, c, d, e, f: s' = a s + b t + c, t' = d s + e t + f) of a UsdUVTexture's texture
+        coordinates: a UsdTransform2d's on its inputs:st (its `in` scaled, rotated counter-clockwise by
+        `rotation` degrees, then translated, as the spec and Storm apply them; nested ones composed), else the
+        identity."""
+        a = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+        source = self._input(tex, 'st', 'float2')[1]
+        for _ in range(8):                               # (a chain of transforms; a cycle stops here)
+            if source is None or source.GetShaderId() != 'UsdTransform2d':
+                break
+            rot = self._input(source, 'rotation', 'float')[0] or 0.0
+            sx, sy = self._input(source, 'scale', 'float2')[0] or (1.0, 1.0)
+            tx, ty = self._input(source, 'translation', 'float2')[0] or (0.0, 0.0)
+            if not np.all(np.isfinite([rot, sx, sy, tx, ty])):
+                self.warn(f'{source.GetPath()}: a value that is not finite; its texture coordinates used as they are')
+                break
+            c, s = np.cos(np.radians(rot)), np.sin(np.radians(rot))
+            m = np.array([[c * sx, -s * sy, tx], [s * sx, c * sy, ty], [0.0, 0.0, 1.0]])
+            a = tuple((np.array(a).reshape(2, 3) @ m).ravel().tolist())   # (nearer the reader: applied first)
+            source = self._input(source, 'in', 'float2')[1]
+        return a
+
     def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,
-                 scale: tuple, bias: tuple, owner: str, light: bool = False) -> int:
+                 scale: tuple, bias: tuple, owner: str, light: bool = False,
+                 transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)) -> int:
         """Index of a texture (file decoded once per colour space), -1 if it cannot be read.
 
         `light`: a light's radiance image (a DomeLight's lat-long texture), whose negative values are read
@@ -416,7 +441,7 @@ class MaterialTable:
         if not resolved:
             self.warn(f'{owner}: texture "{asset.path}" not found')
             return -1
-        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias, light)
+        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias, light, transform)
         if key not in self._texture_index:
             pixels = self._load(resolved, colour_space, owner)
             self._texture_index[key] = -1
@@ -427,7 +452,7 @@ class MaterialTable:
                 pixels = np.maximum(pixels, np.float32(0.0))
             if pixels is not None:
                 self.textures.append(Texture(path=resolved, pixels=pixels, wrap_s=wrap_s,
-                                             wrap_t=wrap_t, scale=scale, bias=bias))
+                                             wrap_t=wrap_t, scale=scale, bias=bias, transform=transform))
                 self._texture_index[key] = len(self.textures) - 1
         return self._texture_index[key]
 
