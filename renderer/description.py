@@ -184,10 +184,11 @@ class Material:
     specular_texture: int = -1
     emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)
     vertex_colors: bool = False             # diffuse times the gprim's per-corner displayColor (Mesh.colors)
-    # UsdPreviewSurface roughness, metallic, opacity connected to a UsdUVTexture's r, g, b or a output: its index
-    # (-1: none) and the channel (0-3) for each, in that order; the input's value (1) is multiplied by it
-    scalar_textures: tuple = (-1, -1, -1)
-    scalar_channels: tuple = (0, 0, 0)
+    # UsdPreviewSurface roughness, metallic, opacity, clearcoat, clearcoatRoughness connected to a UsdUVTexture's
+    # r, g, b or a output: its index (-1: none) and the channel (0-3) for each, in that order; the input's value (1)
+    # is multiplied by it
+    scalar_textures: tuple = (-1, -1, -1, -1, -1)
+    scalar_channels: tuple = (0, 0, 0, 0, 0)
     # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
 
 

@@ -60,7 +60,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
         textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)
-                      or np.any(mi[:, MI_SCALAR_TEX:MI_SCALAR_TEX + 3] >= 0)),
+                      or np.any(mi[:, MI_SCALAR_TEX:MI_SCALAR_TEX + 5] >= 0)),
         opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),

@@ -24,8 +24,8 @@ from .. import description as D
 from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS, F_TEXTURES
 from .jit import JIT, SHADING_INLINE_JIT
 from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
-                     MF_OPACITY, MF_OPACITY_CUT, MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_CH,
-                     MI_SCALAR_TEX, MI_SPECULAR_TEX, S_METAL, S_OPACITY, S_ROUGH)
+                     MF_OPACITY, MF_OPACITY_CUT, MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
+                     MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX, S_CC_ROUGH, S_CLEARCOAT, S_METAL, S_OPACITY, S_ROUGH)
 from .textures import sample_channel, sample_texture
 from .vecmath import dot, normalize
 
@@ -172,9 +172,9 @@ def direct(S, sp, wi, E):
         r = (diff[0] / math.pi * (1.0 - F0) + dg * F0) * E[0] * cos_i
         g = (diff[1] / math.pi * (1.0 - F1) + dg * F1) * E[1] * cos_i
         b = (diff[2] / math.pi * (1.0 - F2) + dg * F2) * E[2] * cos_i
-        cc = float(mf[mat, MF_CLEARCOAT])
+        cc = scalar(S, mat, sp.st, MF_CLEARCOAT, S_CLEARCOAT)
         if F_CLEARCOAT and cc > 0.0:
-            ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001) ** 2
+            ca = max(scalar(S, mat, sp.st, MF_CC_ROUGH, S_CC_ROUGH), 0.001) ** 2
             Fc = _schlick(0.04, 1.0, vh)
             spec = cc * Fc * ggx_d(nh, ca) * smith_g(cos_i, nv, ca) / (4.0 * cos_i * nv)
             r += spec * E[0] * cos_i

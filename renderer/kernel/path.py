@@ -51,7 +51,7 @@ from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, R
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, opacity, preview_params
+from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, opacity, preview_params, scalar
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
@@ -59,7 +59,7 @@ from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sampl
 from .shapes import hit_gprim, surface
 from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_ROUGH,
-                     MI_MODEL, MI_SCALAR_TEX, S_OPACITY)
+                     MI_MODEL, MI_SCALAR_TEX, S_CC_ROUGH, S_CLEARCOAT, S_OPACITY)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
                     hit_of, intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
@@ -84,8 +84,8 @@ def vertex_bsdf(S, sp):
     if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or sp.model == D.PREVIEW_SURFACE):
         diff, f0, f90, alpha = preview_params(S, mat, kd, sp.ks, sp.rmo)
         if F_CLEARCOAT:
-            ca = max(float(mf[mat, MF_CC_ROUGH]), 0.001)
-            return preview_bsdf(diff, f0, f90, alpha, np.float64(mf[mat, MF_CLEARCOAT]), ca * ca)
+            ca = max(scalar(S, mat, sp.st, MF_CC_ROUGH, S_CC_ROUGH), 0.001)
+            return preview_bsdf(diff, f0, f90, alpha, scalar(S, mat, sp.st, MF_CLEARCOAT, S_CLEARCOAT), ca * ca)
         return preview_bsdf(diff, f0, f90, alpha, 0.0, 1e-6)
     cool = BLACK
     if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or sp.model == D.COOL_TO_WARM):

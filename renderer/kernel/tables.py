@@ -10,7 +10,8 @@ Tables (arrays of `SceneData`, and the camera table):
 * `MATERIAL_F` (MF_*, `mat_f` float32): colours and scalars of a material.
 * `MATERIAL_I` (MI_*, `mat_i` int32): the shading model, texture ids (-1 = none), whether the diffuse
   colour is multiplied by the gprim's per-corner displayColor (VERTEX_COLOR), and the textures and channels
-  that multiply roughness, metallic and opacity (SCALAR_TEX, SCALAR_CH: S_ROUGH, S_METAL, S_OPACITY).
+  that multiply roughness, metallic, opacity, clearcoat and clearcoatRoughness (SCALAR_TEX, SCALAR_CH: S_ROUGH,
+  S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH).
 * `LIGHT_F` (LF_*, `li_f` float64): light-to-world 3x4 (camera-relative), radiance, sizes, cone, area.
 * `TEXTURE_I` (TI_*, `tex_i` int64) and `TEXTURE_F` (TF_*, `tex_f` float32): where a texture's texels
   are in `tex_data`, its size, channels and wrap modes; its scale and bias (rgba) and the affine map of its
@@ -63,9 +64,9 @@ MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROU
                           ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
                           ('CLEARCOAT', 1), ('CC_ROUGH', 1), ('OPACITY_CUT', 1)])
 MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1), ('EMISSION_TEX', 1),
-                          ('VERTEX_COLOR', 1), ('SCALAR_TEX', 3), ('SCALAR_CH', 3)])
+                          ('VERTEX_COLOR', 1), ('SCALAR_TEX', 5), ('SCALAR_CH', 5)])
 # the inputs of MI_SCALAR_TEX / MI_SCALAR_CH (a texture and the channel of it that multiplies each), in order
-S_ROUGH, S_METAL, S_OPACITY = 0, 1, 2
+S_ROUGH, S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH = 0, 1, 2, 3, 4
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator
 # uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X)
 LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1),
@@ -122,7 +123,7 @@ WRAP = {'repeat': WRAP_REPEAT, 'clamp': WRAP_CLAMP, 'mirror': WRAP_MIRROR, 'blac
 
 __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE_F',
            'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_LEVELS', 'TREE_SLOTS', 'TABLES', 'S_ROUGH', 'S_METAL',
-           'S_OPACITY', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
+           'S_OPACITY', 'S_CLEARCOAT', 'S_CC_ROUGH', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_CURVES',
            'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON',
            'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

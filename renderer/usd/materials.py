@@ -7,7 +7,8 @@ Resolution order for a bound material:
 2. Its universal-render-context surface shader if that is a ``UsdPreviewSurface``: constant inputs
    (following material-interface connections), ``UsdUVTexture`` connections on
    ``diffuseColor`` / ``specularColor`` / ``emissiveColor`` (file, wrapS/T, scale, bias, sourceColorSpace,
-   fallback, a ``UsdTransform2d`` on its st) and on ``roughness`` / ``metallic`` / ``opacity`` (the channel its r, g, b or a output names:
+   fallback, a ``UsdTransform2d`` on its st) and on ``roughness`` / ``metallic`` / ``opacity`` / ``clearcoat`` /
+   ``clearcoatRoughness`` (the channel its r, g, b or a output names:
    `Material.scalar_textures`), ``opacityThreshold`` (a cut-out), and ``UsdPrimvarReader_float`` / ``_float3``
    connections on any input: the gprim's primvar
    ``varname`` (found with inheritance; its ``fallback`` where the gprim has none), so that one material
@@ -42,7 +43,7 @@ _WRAPS = {'repeat', 'clamp', 'mirror', 'black'}
 _TEXTURE_FIELDS = {'diffuseColor': 'diffuse_texture', 'specularColor': 'specular_texture',
                    'emissiveColor': 'emission_texture'}
 # scalar inputs a UsdUVTexture channel may drive: their place in Material.scalar_textures / scalar_channels
-_SCALAR_TEXTURES = {'roughness': 0, 'metallic': 1, 'opacity': 2}
+_SCALAR_TEXTURES = {'roughness': 0, 'metallic': 1, 'opacity': 2, 'clearcoat': 3, 'clearcoatRoughness': 4}
 _CHANNELS = {'r': 0, 'g': 1, 'b': 2, 'a': 3}
 # UsdPrimvarReader ids -> the kind of value they read (`typed`); a reader feeds an input of its own kind
 _READERS = {'UsdPrimvarReader_float': 'float', 'UsdPrimvarReader_float3': 'color3', 'UsdPrimvarReader_normal': 'color3',
@@ -332,10 +333,10 @@ class MaterialTable:
 
     def _scalar_texture(self, m: Material, shader: UsdShade.Shader, name: str, field: str,
                         tex: UsdShade.Shader) -> None:
-        """A scalar input (roughness, metallic, opacity) driven by the r, g, b or a output of UsdUVTexture `tex`:
-        the texture and the channel multiply the input's value, 1 (`kernel/materials.scalars`); the channel of
-        the texture's fallback where its file cannot be read.  An `rgb` output gives its r, as a float input
-        reads the first component of a float3."""
+        """A scalar input (roughness, metallic, opacity, clearcoat, clearcoatRoughness) driven by the r, g, b or a
+        output of UsdUVTexture `tex`: the texture and the channel multiply the input's value, 1
+        (`kernel/materials.scalar`); the channel of the texture's fallback where its file cannot be read.  An `rgb`
+        output gives its r, as a float input reads the first component of a float3."""
         index, fallback = self._uv_texture(tex)
         output = None
         for attr in shader.GetInput(name).GetValueProducingAttributes():

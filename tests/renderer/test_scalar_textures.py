@@ -78,21 +78,27 @@ def _render(st, integrator, spp=4):
                                       threads=1)).image.astype(np.float64)
 
 
-def _metal_plane(tmp_path, textured: bool):
+def _metal_plane(tmp_path, textured: bool, coat: bool = False):
+    """A plane of roughness g and metallic b of CHANNELS (`coat`: a plastic of clearcoat r and clearcoatRoughness
+    a), from the image or authored."""
     st = Usd.Stage.CreateInMemory()
     image = _exr(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
+    inputs = {'clearcoat': 'r', 'clearcoatRoughness': 'a'} if coat else {'roughness': 'g', 'metallic': 'b'}
     if textured:
-        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3)}, {'roughness': 'g', 'metallic': 'b'}, image)
+        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3)}, inputs, image)
     else:
-        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3), 'roughness': CHANNELS[1],
-                                   'metallic': CHANNELS[2]})
+        mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3),
+                                   **{name: CHANNELS['rgba'.index(c)] for name, c in inputs.items()}})
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/P', -1.5, 1.5, (-1.5, 1.5)).GetPrim()).Bind(mat)
     return _lit(st)
 
 
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
-def test_roughness_and_metallic_textures_render_as_their_channels_authored(tmp_path, integrator):
-    a, b = _render(_metal_plane(tmp_path, True), integrator), _render(_metal_plane(tmp_path, False), integrator)
+@pytest.mark.parametrize('coat', [False, True])
+def test_scalar_textures_render_as_their_channels_authored(tmp_path, integrator, coat):
+    """Roughness and metallic, or clearcoat and clearcoatRoughness, from an image's channels."""
+    a = _render(_metal_plane(tmp_path, True, coat), integrator)
+    b = _render(_metal_plane(tmp_path, False, coat), integrator)
     assert b.max() > 0.05
     assert np.abs(a - b).max() <= 1e-4 * b.max()
 
@@ -109,9 +115,9 @@ def test_the_reader_records_texture_and_channel_and_the_fallback_channel(tmp_pat
     desc = read_stage(st)
     m = {g.path: desc.materials[g.material] for c in desc.containers for g in c.gprims}
     a, b = m['/A'], m['/B']
-    assert a.scalar_textures[0] >= 0 and a.scalar_textures == (a.scalar_textures[0],) * 3
-    assert a.scalar_channels == (1, 2, 3) and (a.roughness, a.metallic, a.opacity) == (1.0, 1.0, 1.0)
-    assert b.scalar_textures == (-1, -1, -1)
+    assert a.scalar_textures[0] >= 0 and a.scalar_textures == (a.scalar_textures[0],) * 3 + (-1, -1)
+    assert a.scalar_channels == (1, 2, 3, 0, 0) and (a.roughness, a.metallic, a.opacity) == (1.0, 1.0, 1.0)
+    assert b.scalar_textures == (-1,) * 5
     assert (b.roughness, b.opacity) == pytest.approx((0.4, 0.8))            # the fallback's g and a
     assert any('/Missing/Tex: texture' in w and 'not found' in w for w in desc.warnings)
     assert not [w for w in desc.warnings if 'not supported' in w]
