@@ -75,3 +75,14 @@ def rect_light(center, width, height, radiance, facing_down=True) -> D.Light:
     m[:3, 2] = (0, 1, 0)       # local +Z = +Y, so it emits along -Y
     m[:3, 3] = center
     return D.Light(path='/rect', type=D.RECT, matrix=m, radiance=tuple(radiance), width=width, height=height)
+
+
+def exr_file(path, pixels) -> str:
+    """Writes pixels (rows x columns x channels) to an OpenEXR file of floats at path; returns the path."""
+    import OpenImageIO as oiio
+    pixels = np.ascontiguousarray(pixels, np.float32)
+    out = oiio.ImageOutput.create(str(path))
+    out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], 'float'))
+    out.write_image(pixels)
+    out.close()
+    return str(path)

@@ -12,26 +12,17 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage
+from tests.renderer.handmade import exr_file
 
 CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
 ST = [(0, 0), (1, 0), (1, 1), (0, 1)]
-
-
-def _exr(path, pixels):
-    import OpenImageIO as oiio
-    pixels = np.ascontiguousarray(pixels, np.float32)
-    out = oiio.ImageOutput.create(str(path))
-    out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], 'float'))
-    out.write_image(pixels)
-    out.close()
-    return str(path)
 
 
 def _stage(tmp_path, transforms=(), st=ST):
     """A quad with texture coordinates `st` whose diffuseColor reads a 4 x 4 image of distinct colours through
     the UsdTransform2d chain `transforms` [(rotation, scale, translation), ...] (the first nearest the texture)."""
     rng = np.random.default_rng(5)
-    image = _exr(tmp_path / 'grid.exr', rng.uniform(0.05, 0.95, (4, 4, 3)))
+    image = exr_file(tmp_path / 'grid.exr', rng.uniform(0.05, 0.95, (4, 4, 3)))
     stage = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(stage, 'Y')
     mesh = UsdGeom.Mesh.Define(stage, '/Quad')
