@@ -189,6 +189,7 @@ class Material:
     # is multiplied by it
     scalar_textures: tuple = (-1, -1, -1, -1, -1)
     scalar_channels: tuple = (0, 0, 0, 0, 0)
+    normal_texture: int = -1                # UsdPreviewSurface normal connected to a UsdUVTexture (tangent space)
     # cool-to-warm (Gooch): the course's diffuse is the object colour; cool/warm tints are fixed constants
 
 

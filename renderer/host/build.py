@@ -163,7 +163,7 @@ def _material_tables(materials: list[D.Material]):
     for k, m in enumerate(mats):
         MATERIAL_I.write(mat_i[k], MODEL=m.model, DIFFUSE_TEX=m.diffuse_texture, SPECULAR_TEX=m.specular_texture,
                          EMISSION_TEX=m.emission_texture, VERTEX_COLOR=int(m.vertex_colors),
-                         SCALAR_TEX=m.scalar_textures, SCALAR_CH=m.scalar_channels)
+                         SCALAR_TEX=m.scalar_textures, SCALAR_CH=m.scalar_channels, NORMAL_TEX=m.normal_texture)
         MATERIAL_F.write(mat_f[k], KD=m.diffuse, KS=m.specular, EXP=m.exponent, MIRROR=m.mirror_coef,
                          ROUGH=m.roughness, IOR=m.ior, ATTEN=m.attenuation, EMIT=m.emission, METAL=m.metallic,
                          OPACITY=m.opacity, SPECWF=1.0 if m.use_specular_workflow else 0.0,

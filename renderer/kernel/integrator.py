@@ -35,17 +35,18 @@ from .. import description as D
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import bsdf_dim, choice_dim, light_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
-                       F_MODELS, F_OPACITY, F_SAMPLERS)
+                       F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
                         refract, sample_ggx_h, scalars, smith_g, _schlick)
+from .normal_maps import mapped_normal
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import corner_color, surface
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_VERTEX_COLOR
+from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_NORMAL_TEX, MI_VERTEX_COLOR
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
                     intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
@@ -205,6 +206,8 @@ def _shading_point(S, tr, ray, time):
     dvec = ray.d
     hit = hit_of(tr.f, tr.u)
     p, ng, ns, st, g, mat = surface(S, tr.scene, hit, ray.o, dvec, time, tr.m, tr.m32)
+    if F_NORMAL_MAPS and S.mat_i[mat, MI_NORMAL_TEX] >= 0:       # (tr.m: the hit's placement, from `surface`)
+        ns = mapped_normal(S, tr.m, hit, g, p, ns, st, S.mat_i[mat, MI_NORMAL_TEX])
     model = S.mat_i[mat, MI_MODEL]
     front = dot(ng, dvec) < 0.0
     if not front:

@@ -20,7 +20,7 @@ from .curves import surface_point
 from .features import F_CURVES, F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
 from .tables import (GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX,
-                     MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX)
+                     MI_NORMAL_TEX, MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX)
 from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
@@ -72,7 +72,8 @@ def corner_color(S, g, hit):
 def textured(S, mat):
     """Whether material mat reads an image texture (its hits need texture coordinates)."""
     return F_TEXTURES and (S.mat_i[mat, MI_DIFFUSE_TEX] >= 0 or S.mat_i[mat, MI_SPECULAR_TEX] >= 0
-                           or S.mat_i[mat, MI_EMISSION_TEX] >= 0 or _scalar_textured(S, mat))
+                           or S.mat_i[mat, MI_EMISSION_TEX] >= 0 or _scalar_textured(S, mat)
+                           or S.mat_i[mat, MI_NORMAL_TEX] >= 0)
 
 
 @nb.njit(**SHADING_INLINE_JIT)

@@ -11,7 +11,7 @@ Tables (arrays of `SceneData`, and the camera table):
 * `MATERIAL_I` (MI_*, `mat_i` int32): the shading model, texture ids (-1 = none), whether the diffuse
   colour is multiplied by the gprim's per-corner displayColor (VERTEX_COLOR), and the textures and channels
   that multiply roughness, metallic, opacity, clearcoat and clearcoatRoughness (SCALAR_TEX, SCALAR_CH: S_ROUGH,
-  S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH).
+  S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH), and the texture of its tangent-space normal (NORMAL_TEX).
 * `LIGHT_F` (LF_*, `li_f` float64): light-to-world 3x4 (camera-relative), radiance, sizes, cone, area.
 * `TEXTURE_I` (TI_*, `tex_i` int64) and `TEXTURE_F` (TF_*, `tex_f` float32): where a texture's texels
   are in `tex_data`, its size, channels and wrap modes; its scale and bias (rgba) and the affine map of its
@@ -64,7 +64,8 @@ MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROU
                           ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
                           ('CLEARCOAT', 1), ('CC_ROUGH', 1), ('OPACITY_CUT', 1)])
 MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1), ('EMISSION_TEX', 1),
-                          ('VERTEX_COLOR', 1), ('SCALAR_TEX', 5), ('SCALAR_CH', 5)])
+                          ('VERTEX_COLOR', 1), ('SCALAR_TEX', 5), ('SCALAR_CH', 5),
+                          ('NORMAL_TEX', 1)])
 # the inputs of MI_SCALAR_TEX / MI_SCALAR_CH (a texture and the channel of it that multiplies each), in order
 S_ROUGH, S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH = 0, 1, 2, 3, 4
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator

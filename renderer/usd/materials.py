@@ -9,7 +9,8 @@ Resolution order for a bound material:
    ``diffuseColor`` / ``specularColor`` / ``emissiveColor`` (file, wrapS/T, scale, bias, sourceColorSpace,
    fallback, a ``UsdTransform2d`` on its st) and on ``roughness`` / ``metallic`` / ``opacity`` / ``clearcoat`` /
    ``clearcoatRoughness`` (the channel its r, g, b or a output names:
-   `Material.scalar_textures`), ``opacityThreshold`` (a cut-out), and ``UsdPrimvarReader_float`` / ``_float3``
+   `Material.scalar_textures`), on ``normal`` (a tangent-space normal map: `Material.normal_texture`,
+   `kernel/normal_maps.py`), ``opacityThreshold`` (a cut-out), and ``UsdPrimvarReader_float`` / ``_float3``
    connections on any input: the gprim's primvar
    ``varname`` (found with inheritance; its ``fallback`` where the gprim has none), so that one material
    gives each gprim its own value (`MaterialTable.bound`).
@@ -323,13 +324,26 @@ class MaterialTable:
                 continue
             if value is not None:
                 setattr(m, field, bool(value) if field == 'use_specular_workflow' else value)
-        for name in ('normal', 'displacement'):        # (read by Storm; a surface's own geometry here)
-            source = self._input(shader, name, 'color3' if name == 'normal' else 'float')[1]
-            if source is not None:
-                self.warn(f'{path}: inputs:{name} is driven by {source.GetShaderId() or "a shader"} '
-                          f'({source.GetPath()}), which is not supported; the surface\'s own '
-                          f'{"normals" if name == "normal" else "shape"} used')
+        normal = self._input(shader, 'normal', 'color3')[1]
+        if normal is not None and normal.GetShaderId() == 'UsdUVTexture' and self._output(shader, 'normal') == 'rgb':
+            m.normal_texture = self._uv_texture(normal)[0]     # (no file: the surface's own normals)
+        elif normal is not None:
+            self.warn(f'{path}: inputs:normal is driven by {normal.GetShaderId() or "a shader"} '
+                      f'({normal.GetPath()}{"" if normal.GetShaderId() != "UsdUVTexture" else ", not its rgb"}), '
+                      'which is not supported; the surface\'s own normals used')
+        displacement = self._input(shader, 'displacement', 'float')[1]
+        if displacement is not None:                   # (Storm moves the points; a surface's own shape here)
+            self.warn(f'{path}: inputs:displacement is driven by {displacement.GetShaderId() or "a shader"} '
+                      f'({displacement.GetPath()}), which is not supported; the surface\'s own shape used')
         return m
+
+    @staticmethod
+    def _output(shader: UsdShade.Shader, name: str) -> str | None:
+        """The name of the output that drives input `name` of `shader` (through material-interface inputs)."""
+        for attr in shader.GetInput(name).GetValueProducingAttributes():
+            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
+                return UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
+        return None
 
     def _scalar_texture(self, m: Material, shader: UsdShade.Shader, name: str, field: str,
                         tex: UsdShade.Shader) -> None:
@@ -338,11 +352,7 @@ class MaterialTable:
         (`kernel/materials.scalar`); the channel of the texture's fallback where its file cannot be read.  An `rgb`
         output gives its r, as a float input reads the first component of a float3."""
         index, fallback = self._uv_texture(tex)
-        output = None
-        for attr in shader.GetInput(name).GetValueProducingAttributes():
-            if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output:
-                output = UsdShade.Utils.GetBaseNameAndType(attr.GetName())[0]
-        channel = _CHANNELS.get(output, 0)
+        channel = _CHANNELS.get(self._output(shader, name), 0)
         if index < 0:
             setattr(m, field, float(fallback[channel]))
             return

@@ -11,19 +11,10 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage
+from tests.renderer.handmade import exr_file
 
 CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
 CHANNELS = (0.9, 0.2, 0.7, 0.5)          # r, g, b, a of the constant image
-
-
-def _exr(path, pixels):
-    import OpenImageIO as oiio
-    pixels = np.ascontiguousarray(pixels, np.float32)
-    out = oiio.ImageOutput.create(str(path))
-    out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], 'float'))
-    out.write_image(pixels)
-    out.close()
-    return str(path)
 
 
 def _quad(st, path, x0, x1, z, y=0.0):
@@ -82,7 +73,7 @@ def _metal_plane(tmp_path, textured: bool, coat: bool = False):
     """A plane of roughness g and metallic b of CHANNELS (`coat`: a plastic of clearcoat r and clearcoatRoughness
     a), from the image or authored."""
     st = Usd.Stage.CreateInMemory()
-    image = _exr(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
+    image = exr_file(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
     inputs = {'clearcoat': 'r', 'clearcoatRoughness': 'a'} if coat else {'roughness': 'g', 'metallic': 'b'}
     if textured:
         mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3)}, inputs, image)
@@ -105,7 +96,7 @@ def test_scalar_textures_render_as_their_channels_authored(tmp_path, integrator,
 
 def test_the_reader_records_texture_and_channel_and_the_fallback_channel(tmp_path):
     st = Usd.Stage.CreateInMemory()
-    image = _exr(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
+    image = exr_file(tmp_path / 'rgba.exr', np.broadcast_to(CHANNELS, (4, 4, 4)))
     _material(st, '/M', textured={'roughness': 'g', 'metallic': 'b', 'opacity': 'a'}, image=image)
     _material(st, '/Missing', textured={'roughness': 'g', 'opacity': 'a'}, image=str(tmp_path / 'none.exr'))
     for path in ('/A', '/B'):
@@ -138,7 +129,7 @@ def test_each_output_reads_the_specs_channel_of_an_image(tmp_path, channels, exp
     rng = np.random.default_rng(channels)
     pixels = rng.uniform(0.1, 0.9, (2, 2, channels)).astype(np.float32)
     st = Usd.Stage.CreateInMemory()
-    mat = _material(st, '/M', textured={'roughness': 'r'}, image=_exr(tmp_path / f'c{channels}.exr', pixels))
+    mat = _material(st, '/M', textured={'roughness': 'r'}, image=exr_file(tmp_path / f'c{channels}.exr', pixels))
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/A', -1, 1, (-1, 1)).GetPrim()).Bind(mat)
     _lit(st)
     built = build(read_stage(st))
@@ -162,7 +153,7 @@ def _cutout(tmp_path, cut: bool, glow: bool):
                       else {'diffuseColor': (0.8, 0.1, 0.1)})
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/Floor', -3, 3, (-3, 3)).GetPrim()).Bind(floor)
     if cut:
-        image = _exr(tmp_path / 'cut.exr', np.array([[[1, 1, 1, 0.2], [1, 1, 1, 0.8]]], np.float32))
+        image = exr_file(tmp_path / 'cut.exr', np.array([[[1, 1, 1, 0.2], [1, 1, 1, 0.8]]], np.float32))
         mat = _material(st, '/White', {'diffuseColor': (0.9, 0.9, 0.9), 'opacityThreshold': 0.5},
                         {'opacity': 'a'}, image)
         quad = _quad(st, '/Card', -0.8, 0.8, (-0.5, 0.5), y=0.4)
@@ -185,22 +176,6 @@ def test_an_opacity_threshold_cuts_the_surface_out(tmp_path, integrator, glow):
     cols = np.r_[0:18, 30:48]                                 # away from the cut's blurred band
     assert np.abs(a[:, cols] - b[:, cols]).mean() <= 0.03 * b[:, cols].mean()
     assert a[:, cols].mean() == pytest.approx(b[:, cols].mean(), rel=0.02)
-
-
-def test_a_normal_map_is_named_in_a_warning(tmp_path):
-    """A normal map (Storm reads it; rtc shades the surface's own normals) is not dropped silently."""
-    st = Usd.Stage.CreateInMemory()
-    image = _exr(tmp_path / 'n.exr', np.broadcast_to((0.5, 0.5, 1.0), (2, 2, 3)))
-    mat = _material(st, '/M', {'diffuseColor': (0.5, 0.5, 0.5)})
-    tex = UsdShade.Shader.Define(st, '/M/Normals')
-    tex.CreateIdAttr('UsdUVTexture')
-    tex.CreateInput('file', Sdf.ValueTypeNames.Asset).Set(image)
-    UsdShade.Shader.Get(st, '/M/Surface').CreateInput('normal', Sdf.ValueTypeNames.Normal3f).ConnectToSource(
-        tex.CreateOutput('rgb', Sdf.ValueTypeNames.Float3))
-    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/A', -1, 1, (-1, 1)).GetPrim()).Bind(mat)
-    desc = read_stage(st)
-    assert any(w.startswith('/M: inputs:normal is driven by UsdUVTexture (/M/Normals), which is not supported; '
-                            "the surface's own normals used") for w in desc.warnings), desc.warnings
 
 
 def test_roughness_test_usdz_reads_its_roughness_textures():
