@@ -208,3 +208,14 @@ def test_openusd_normal_map_test_lights_the_walls_storm_lights(tmp_path):
     brighter, darker = cols[d[rows, cols] > 0], cols[d[rows, cols] < 0]
     assert len(brighter) >= 5 and len(darker) >= 5
     assert brighter.mean() > darker.mean() + 5, (brighter.mean(), darker.mean())
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_coordinates_that_do_not_vary_leave_the_normal_as_it_was(tmp_path, integrator):
+    """Every corner at the same (s, t), or all on one line: no tangent frame (dp/ds is undefined), so the map is not
+    applied (Storm's derivatives would be zero there too); the image is the unmapped quad's, and finite."""
+    for coords in ([(0.3, 0.6)] * 4, [(0, 0), (0.5, 0.5), (1, 1), (0.5, 0.5)]):
+        mapped = _render(_stage(tmp_path, True, coords), integrator)
+        plain = _render(_stage(tmp_path, False, coords), integrator)
+        assert np.isfinite(mapped).all() and plain.max() > 0.05
+        assert np.abs(mapped - plain).max() <= 1e-6 * plain.max()
