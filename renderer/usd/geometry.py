@@ -24,9 +24,10 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pxr import Sdf, Tf, Usd, UsdGeom
+from pxr import Tf, Usd, UsdGeom
 
 from ..description import FLOAT32_MAX, Mesh, Sphere
+from .texture_coordinates import uv_primvar
 
 Warn = Callable[[str], None]
 SEGMENTS = 48            # tessellation of quadrics around their axis
@@ -174,20 +175,6 @@ def varying_display_color(prim: Usd.Prim, time):
     if v.ndim != 2 or v.shape[1] != 3 or len(v) < 2 or not np.all(np.isfinite(v)) or np.all(v == v[0]):
         return None
     return v, pv.GetInterpolation()
-
-
-def uv_primvar(prim: Usd.Prim):
-    """The texture-coordinate primvar: `st`, else `UVMap` (Blender), else the first
-    texCoord2f[] primvar."""
-    api = UsdGeom.PrimvarsAPI(prim)
-    for name in ('st', 'UVMap'):
-        pv = api.GetPrimvar(name)
-        if pv and pv.HasAuthoredValue():
-            return pv
-    for pv in api.GetPrimvarsWithAuthoredValues():
-        if pv.GetTypeName() == Sdf.ValueTypeNames.TexCoord2fArray:
-            return pv
-    return None
 
 
 def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, posed=None) -> list[Mesh]:
