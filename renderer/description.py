@@ -224,6 +224,8 @@ class Light:
                                             # side, outwards, not from its caps)
     texture: int = -1                       # DOME: lat-long texture, -1 = constant colour
     course_intensity: Optional[tuple] = None  # a course light (RtcCourseLightAPI): the course's intensity I
+    # UsdLux.ShapingAPI: (cone angle in degrees off the -Z axis, cone softness, focus, focus tint rgb); None: unshaped
+    shaping: Optional[tuple] = None
     # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space
     # area when normalize is on); a POINT light's `radiance` is its radiant intensity I, so the irradiance
     # at distance d facing it is I / d**2.  DISTANT: irradiance E on a surface facing it.

@@ -214,6 +214,10 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
                       COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area, LENGTH=l.length)
         if l.course_intensity is not None and l.type in (D.POINT, D.RECT):
             LIGHT_F.write(li_f[k], COURSE=1.0, COURSE_I=l.course_intensity)
+        if l.shaping is not None:
+            cone, softness, focus, tint = l.shaping
+            theta = np.radians(cone)
+            LIGHT_F.write(li_f[k], SHAPED=1.0, CONE=(theta, theta * (1.0 - softness)), FOCUS=focus, TINT=tint)
     return li_type, li_f, li_tex
 
 

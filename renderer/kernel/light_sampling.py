@@ -35,7 +35,7 @@ from .. import description as D
 from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
 from .dome_sampling import dome_pdf, sample_dome_texture
 from .light_tree import light_pmf
-from .lights import cylinder_point, dome_radiance
+from .lights import cylinder_point, dome_radiance, shaped
 from .jit import SHADING_INLINE_JIT as _JIT
 from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, lobe_area_pdf, lobe_pdf, lobe_window,
                             round_window)
@@ -479,7 +479,7 @@ def shape_emission(S, L, k, ray, te, prev):
         if win[0]:
             pl = lobe_pdf(win, plane, lim, p0, (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
-    return w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]
+    return shaped(S, k, d, (w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]))
 
 
 @nb.njit(**_JIT)

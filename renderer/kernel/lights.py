@@ -12,6 +12,12 @@ angle of the visible cap (sphere: exact, no wasted samples behind the horizon of
 gives soft shadows whose noise falls with the stratification of the 2D light sample.  A cylinder
 light (along its local X) emits outwards from its side: a sample point facing away from the shading
 point contributes nothing.
+
+A light with UsdLux.ShapingAPI (`shaped`) is a spotlight: its emission towards a direction at angle theta off its
+-Z axis is multiplied by the cone's cut-off, 1 - smoothstep(theta; angle (1 - softness), angle), so 1 inside the
+cone's soft edge, 0 past its angle, as Pixar's hdEmbree shapes it, and with a focus f by the off-axis cosine power
+lerp(focusTint, 1, cos(theta)^f).  Both integrators apply it to every light sample, and the path integrator to BSDF
+rays that find the light's shape, so that the two estimators agree.
 """
 import math
 
@@ -19,9 +25,10 @@ import numba as nb
 
 from .. import description as D
 from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE,
-                       F_LIGHTS, F_LUX_LIGHTS)
+                       F_LIGHTS, F_LUX_LIGHTS, F_SHAPING)
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .tables import LF_AREA, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_H, LF_LENGTH, LF_M, LF_RAD,
+                     LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
 from .textures import sample_latlong
 from .vecmath import dot, normalize, onb, sub, to_world
 
@@ -39,6 +46,32 @@ def light_is_area(S, k):
     distant light of zero angle.  Delta lights draw no sample: nothing is computed they don't need."""
     t = S.li_type[k]
     return not (t == D.POINT or (t == D.DISTANT and S.li_f[k, LF_COS_MAX] >= 1.0))
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def shaped(S, k, wi, Le):
+    """Radiance Le of light k along the direction -wi (wi: from the lit point towards the light) as its
+    UsdLux.ShapingAPI shapes it (module docstring); Le itself for an unshaped light."""
+    lf = S.li_f
+    if not (F_SHAPING and lf[k, LF_SHAPED] != 0.0):
+        return Le
+    z = normalize(_col(lf, k, 2))                    # (the light emits along -Z: cos theta = wi . Z)
+    c = max(-1.0, min(1.0, dot(wi, z)))
+    theta = math.acos(c)
+    hi, lo = lf[k, LF_CONE], lf[k, LF_CONE + 1]
+    f = 1.0
+    if theta >= hi:
+        f = 0.0
+    elif theta > lo:
+        x = (theta - lo) / (hi - lo)
+        f = 1.0 - x * x * (3.0 - 2.0 * x)
+    focus = lf[k, LF_FOCUS]
+    if focus > 0.0:
+        g = max(c, 0.0) ** focus
+        return (Le[0] * f * (lf[k, LF_TINT] + (1.0 - lf[k, LF_TINT]) * g),
+                Le[1] * f * (lf[k, LF_TINT + 1] + (1.0 - lf[k, LF_TINT + 1]) * g),
+                Le[2] * f * (lf[k, LF_TINT + 2] + (1.0 - lf[k, LF_TINT + 2]) * g))
+    return Le[0] * f, Le[1] * f, Le[2] * f
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -199,7 +232,8 @@ def sample_course_light(S, k, p, n, u1, u2):
     (xml-format.md section 4); any other light as `sample_light`."""
     lf = S.li_f
     if F_LUX_LIGHTS and (not F_COURSE_LIGHTS or lf[k, LF_COURSE] == 0.0):
-        return sample_light(S, k, p, n, u1, u2)
+        wi, dist, E = sample_light(S, k, p, n, u1, u2)
+        return wi, dist, shaped(S, k, wi, E)
     q = _col(lf, k, 3)
     if S.li_type[k] == D.RECT:
         ex = _col(lf, k, 0)

@@ -51,6 +51,7 @@ from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, R
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
+from .lights import shaped
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, opacity, preview_params, scalar
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
@@ -138,6 +139,7 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
         wi, dist, Le, pdf, delta = sample_surface(S, L, tr, k, vtx.p, vtx.time, u[0], u[1])
     else:
         wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, k, vtx, u)
+        Le = shaped(S, k, wi, Le)                        # (a spotlight's cone and focus)
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     fc, pb = evaluate_seen(b, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))

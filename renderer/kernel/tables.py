@@ -69,9 +69,12 @@ MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1),
 # the inputs of MI_SCALAR_TEX / MI_SCALAR_CH (a texture and the channel of it that multiplies each), in order
 S_ROUGH, S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH = 0, 1, 2, 3, 4
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator
-# uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X)
+# uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X);
+# SHAPED: 1 for a light shaped by UsdLux.ShapingAPI, its CONE (the cone's angle and the angle its soft edge starts
+# at, radians), FOCUS and focus TINT (`lights.shaped`)
 LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1),
-                       ('COURSE', 1), ('COURSE_I', 3), ('LENGTH', 1)])
+                       ('COURSE', 1), ('COURSE_I', 3), ('LENGTH', 1), ('SHAPED', 1), ('CONE', 2), ('FOCUS', 1),
+                       ('TINT', 3)])
 TEXTURE_I = Table('TI', [('OFFSET', 1), ('WIDTH', 1), ('HEIGHT', 1), ('CHANNELS', 1), ('WRAP_S', 1),
                          ('WRAP_T', 1)])
 TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4), ('XF', 6)])

@@ -72,10 +72,6 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     if abs(np.linalg.det(to_world[:3, :3])) < 1e-300:
         warn(f'{path}: singular light transform; light ignored')
         return None
-    if prim.HasAPI(UsdLux.ShapingAPI):
-        cone = UsdLux.ShapingAPI(prim).GetShapingConeAngleAttr().Get(time)
-        if cone is not None and cone < 90:
-            warn(f'{path}: ShapingAPI cone ({cone} deg) is not supported; emitting unshaped')
     if kind in ('DomeLight', 'DomeLight_1'):
         m = to_world
         if kind == 'DomeLight_1':
@@ -96,6 +92,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
 
     frame, scale = rigid_frame(to_world)
     light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
+    if light is not None:
+        light.shaping = _shaping(prim, path, light.type, time, warn)
     course = prim.GetAttribute('rtc:intensity')
     if light is not None and course and course.Get(time) is not None:
         light.course_intensity = _rgb(course.Get(time))
@@ -149,6 +147,40 @@ def _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, t
         return _cylinder_light(prim, path, frame, scale, base, normalize, time, warn)
     warn(f'{path}: {kind} is not supported; light ignored')
     return None
+
+
+def _shaping(prim: Usd.Prim, path: str, kind: int, time: Usd.TimeCode, warn: Warn) -> Optional[tuple]:
+    """(cone angle in degrees, softness, focus, focus tint) of a light with UsdLux.ShapingAPI (`Light.shaping`;
+    applied by `kernel/lights.shaped`), None where it shapes nothing: no ShapingAPI, a cone of 180 degrees or more
+    without focus, or a DistantLight (whose emission has one direction: warned).  Values past their range are
+    clamped (angle 0-180, softness 0-1, focus >= 0); one that is not finite leaves the light unshaped, warned.  An
+    IES profile is not read (warned): the cone and the focus are applied without it."""
+    api = UsdLux.ShapingAPI(prim)
+    if not prim.HasAPI(UsdLux.ShapingAPI) and not any(
+            a.HasAuthoredValue() for a in (api.GetShapingConeAngleAttr(), api.GetShapingFocusAttr())):
+        return None
+
+    def get(attr, default):
+        value = attr.Get(time) if attr else None
+        return default if value is None else value
+
+    cone, softness = get(api.GetShapingConeAngleAttr(), 90.0), get(api.GetShapingConeSoftnessAttr(), 0.0)
+    focus, tint = get(api.GetShapingFocusAttr(), 0.0), get(api.GetShapingFocusTintAttr(), (0.0, 0.0, 0.0))
+    values = np.array([cone, softness, focus, *tint], np.float64)
+    if not np.all(np.isfinite(values)):
+        warn(f'{path}: a ShapingAPI input that is not finite ({values.tolist()}); the light emits unshaped')
+        return None
+    ies = api.GetShapingIesFileAttr().Get(time)
+    if ies is not None and ies.path:
+        warn(f'{path}: the IES profile {ies.path} is not supported; its cone and focus are applied without it')
+    cone, softness = min(max(float(cone), 0.0), 180.0), min(max(float(softness), 0.0), 1.0)
+    focus = max(float(focus), 0.0)
+    if cone >= 180.0 and focus == 0.0:
+        return None
+    if kind == DISTANT:
+        warn(f'{path}: ShapingAPI on a DistantLight (one direction) is not applied')
+        return None
+    return cone, softness, focus, tuple(float(c) for c in tint)
 
 
 def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Optional[Light]:

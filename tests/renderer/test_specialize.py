@@ -124,7 +124,7 @@ def test_features_are_read_from_the_scene_tables(monkeypatch):
     assert f.models == F.B_PREVIEW_SURFACE and f.lights == F.B_RECT | F.B_DOME
     assert f.textures and f.opacity and f.emission and f.clearcoat and f.spheres and f.dome_texture
     assert f.light_shapes and f.surface_lights and f.lux_lights and not f.course_lights
-    assert not (f.normal_maps or f.normals or f.uvs or f.xf_motion or f.ortho or f.lens or f.time)
+    assert not (f.shaping or f.normal_maps or f.normals or f.uvs or f.xf_motion or f.ortho or f.lens or f.time)
     assert 'cmj tent previewSurface light:rect light:dome' in f.describe()
 
 

@@ -248,16 +248,18 @@ def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
 
 
 def test_the_lights_example_scene_samples_every_kind_of_light():
-    """scenes/lights.usda (the path gallery's USD example): a RectLight and a CylinderLight read as lights,
-    the MeshLightAPI panel and the emissive sphere as the two emissive-surface lights, all in the tree;
+    """scenes/lights.usda (the path gallery's USD example): a RectLight, a CylinderLight and a spotlight (shaped
+    SphereLight) read as lights, the MeshLightAPI panel and the emissive sphere as the two emissive-surface lights, all
+    in the tree;
     a small path render of it is finite and lit."""
     from pathlib import Path
     from rtc.renderer.host.render import RenderOptions, Renderer
     desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'lights.usda'))
-    assert sorted(l.type for l in desc.lights) == sorted([D.RECT, D.CYLINDER])
+    assert sorted(l.type for l in desc.lights) == sorted([D.RECT, D.CYLINDER, D.SPHERE])
+    assert [l.shaping for l in desc.lights if l.type == D.SPHERE] == [(20.0, pytest.approx(0.35), 0.0, (0.0, 0.0, 0.0))]
     with _path_lights(desc) as (built, L):
-        assert L.n_surface == 2 and L.surface_first == 2
-        assert (L.depth[:4] >= 0).all()                  # all four in the tree
+        assert L.n_surface == 2 and L.surface_first == 3
+        assert (L.depth[:5] >= 0).all()                  # all five in the tree
     with Renderer(desc) as r:
         img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2)).image
     assert np.isfinite(img).all() and img.mean() > 0.01

@@ -264,10 +264,10 @@ def test_a_light_with_a_nonfinite_input_is_dropped_by_name(kind, name, value):
     assert f'/odd.{name}: {value} is not a finite number; light ignored' in desc.warnings, desc.warnings
 
 
-@pytest.mark.parametrize('name, value', [('inputs:shaping:cone:angle', NAN), ('inputs:colorTemperature', INF),
+@pytest.mark.parametrize('name, value', [('inputs:shaping:ies:angleScale', NAN), ('inputs:colorTemperature', INF),
                                          ('inputs:shadow:distance', INF)])
 def test_a_nonfinite_input_the_reading_does_not_use_keeps_the_light(name, value):
-    """A light keeps its place when the odd value is in an input rtc does not read (a shaping cone, a colour
+    """A light keeps its place when the odd value is in an input rtc does not read (an IES profile's scale, a colour
     temperature that is not enabled), as renderers that do not read it would."""
     st = stage()
     st.GetPrimAtPath('/l').CreateAttribute(name, Sdf.ValueTypeNames.Float).Set(value)
