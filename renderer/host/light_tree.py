@@ -4,8 +4,10 @@
 Every light with a position (point, rect, disk, sphere, cylinder) is a leaf with its *light bounds*:
 a box, its phi (its largest radiant intensity, `light_selection.light_phi`) and the cone of its emission
 normals (axis w, half-angle theta_o), one-sided or two-sided.  Every light emits up to pi/2 beyond its
-normals (pbrt's theta_e: UsdLux lights emit into a hemisphere about each normal, or everywhere; rtc reads
-no ShapingAPI cone), so theta_e is a constant of the kernel, not a bound.  Inner nodes bound their children (union of boxes,
+normals (pbrt's theta_e: UsdLux lights emit into a hemisphere about each normal, or everywhere), so theta_e is a
+constant of the kernel, not a bound; a spotlight (a point or sphere light with a ShapingAPI cone under 90 degrees)
+has its cone for its normals' (theta_o the cone's angle about -Z): beyond theta_o + pi/2 it is never chosen, a bound
+looser than its cone's, which keeps the estimate unbiased.  Inner nodes bound their children (union of boxes,
 sum of phis, union of cones).  At a shading point the kernel walks from the root to a leaf, taking
 each child with probability proportional to its *importance* there: phi / distance^2, times
 bounds on the cosines at the light and at the receiver (`kernel/light_tree.py`), so a light far away,
@@ -132,6 +134,9 @@ def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
             r = li_f[k, LF_RADIUS] if l.type != D.POINT else 0.0
             lo, hi = c - r, c + r
             cone = ENTIRE
+            if l.shaping is not None and l.shaping[0] < 90.0:      # a spotlight: its cone about its -Z axis
+                w = -m[:, 2] / max(float(np.linalg.norm(m[:, 2])), 1e-300)
+                cone = (w, float(np.cos(np.radians(l.shaping[0]))))
         idx.append(k)
         bounds.append((lo, hi, float(power[k]), cone, False))
     return idx, bounds

@@ -131,3 +131,26 @@ def test_the_reader_reads_the_cone_and_focus_and_names_what_it_cannot_use():
     light = UsdLux.SphereLight.Define(st, '/L')
     UsdLux.ShapingAPI.Apply(light.GetPrim()).CreateShapingIesFileAttr(Sdf.AssetPath('lamp.ies'))
     assert any(w.startswith('/L: the IES profile lamp.ies is not supported') for w in read_stage(st).warnings)
+
+
+def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
+    """The tree bounds a spotlight by its cone about -Z (`host/light_tree.light_bounds`): above the light, more than
+    theta_o + pi/2 off its axis, it is never chosen; below it, it is."""
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    from rtc.renderer.kernel.light_tree import choose_lights, light_pmf
+    spot = D.Light(path='/spot', type=D.POINT, matrix=_down((0.0, H, 0.0)), radiance=(8.0,) * 3,
+                   shaping=(30.0, 0.2, 0.0, (0.0, 0.0, 0.0)))
+    lamp = D.Light(path='/lamp', type=D.POINT, matrix=_down((2.0, 1.0, 0.0)), radiance=(1.0,) * 3)
+    desc = _floor(spot)
+    desc.lights = [spot, lamp]
+    built = build(desc)
+    try:
+        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+        above, below = np.array([0.0, H + 1.0, 0.0]) - built.origin, np.array([0.3, 0.0, 0.2]) - built.origin
+        up = (0.0, 1.0, 0.0)
+        assert light_pmf(L, above, (0.0, -1.0, 0.0), 0) == 0.0 and light_pmf(L, above, (0.0, -1.0, 0.0), 1) == 1.0
+        assert light_pmf(L, below, up, 0) > 0.0          # (1 where it outshines the lamp: a split)
+        assert all(choose_lights(L, above, (0.0, -1.0, 0.0), u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50))
+    finally:
+        built.close()
