@@ -14,6 +14,7 @@ from rtc.renderer.host.render import Renderer
 from rtc.renderer.options import RenderOptions, resolve
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import exr_file
+from tests.renderer.usd_stages import light_and_camera, render
 
 CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
 TILT = (math.sin(0.6) * math.cos(0.4), math.sin(0.6) * math.sin(0.4), math.cos(0.6))   # a unit tangent normal
@@ -73,22 +74,7 @@ def _stage(tmp_path, mapped, coords=ST, normal=None, placed=False, n=TILT):
         xf.AddScaleOp().Set(Gf.Vec3f(-1.0, 1.0, 1.0))
     mat = _material(st, _normal_image(tmp_path, n) if mapped else None)
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/G/Q', coords, normal).GetPrim()).Bind(mat)
-    light = UsdLux.RectLight.Define(st, '/Light')
-    light.CreateIntensityAttr(30.0)
-    light.CreateWidthAttr(0.5)
-    light.CreateHeightAttr(0.5)
-    light.AddTranslateOp().Set(Gf.Vec3d(1.2, 1.0, 0.5))
-    light.AddRotateXOp().Set(-90.0)
-    cam = UsdGeom.Camera.Define(st, '/Cam')
-    cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 3.0, 3.0))
-    cam.AddRotateXOp().Set(-45.0)
-    return st
-
-
-def _render(st, integrator, spp=4):
-    with Renderer(read_stage(st), threads=1) as r:
-        return r.render(RenderOptions(width=48, height=36, spp=spp, integrator=integrator, max_depth=2,
-                                      threads=1)).image.astype(np.float64)
+    return light_and_camera(st, at=(1.2, 1.0, 0.5), size=0.5, intensity=30.0)
 
 
 def _expected(n, coords):
@@ -101,9 +87,9 @@ def _expected(n, coords):
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
 @pytest.mark.parametrize('coords, placed', [(ST, False), (MIRRORED, False), (ST, True)])
 def test_a_constant_map_renders_as_its_normal_authored(tmp_path, integrator, coords, placed):
-    mapped = _render(_stage(tmp_path, True, coords, placed=placed), integrator)
-    authored = _render(_stage(tmp_path, False, coords, normal=_expected(TILT, coords), placed=placed), integrator)
-    plain = _render(_stage(tmp_path, False, coords, placed=placed), integrator)
+    mapped = render(_stage(tmp_path, True, coords, placed=placed), integrator)
+    authored = render(_stage(tmp_path, False, coords, normal=_expected(TILT, coords), placed=placed), integrator)
+    plain = render(_stage(tmp_path, False, coords, placed=placed), integrator)
     assert authored.max() > 0.05
     assert np.abs(mapped - authored).max() <= 1e-4 * authored.max()
     assert np.abs(plain - authored).max() > 0.1 * authored.max()      # (the tilt shows)
@@ -111,8 +97,8 @@ def test_a_constant_map_renders_as_its_normal_authored(tmp_path, integrator, coo
 
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
 def test_a_flat_map_renders_as_no_map(tmp_path, integrator):
-    flat = _render(_stage(tmp_path, True, n=(0.0, 0.0, 1.0)), integrator)
-    plain = _render(_stage(tmp_path, False), integrator)
+    flat = render(_stage(tmp_path, True, n=(0.0, 0.0, 1.0)), integrator)
+    plain = render(_stage(tmp_path, False), integrator)
     assert np.abs(flat - plain).max() <= 1e-5 * plain.max()
 
 
@@ -135,11 +121,11 @@ def test_a_spheres_map_tilts_along_its_parallels(tmp_path, integrator):
     """At the point facing +z, dp/ds runs along +x: a map tilting 35 degrees towards x turns the normal towards the
     light (from 45 degrees on the +x side), a tilt towards y turns it up (the light's cosine falls); a flat map
     changes nothing."""
-    plain = _render(_sphere_stage(tmp_path, False, None), integrator)
-    flat = _render(_sphere_stage(tmp_path, True, (0.0, 0.0, 1.0)), integrator)
+    plain = render(_sphere_stage(tmp_path, False, None), integrator)
+    flat = render(_sphere_stage(tmp_path, True, (0.0, 0.0, 1.0)), integrator)
     a = math.radians(35.0)
-    towards_x = _render(_sphere_stage(tmp_path, True, (math.sin(a), 0.0, math.cos(a))), integrator)
-    towards_y = _render(_sphere_stage(tmp_path, True, (0.0, math.sin(a), math.cos(a))), integrator)
+    towards_x = render(_sphere_stage(tmp_path, True, (math.sin(a), 0.0, math.cos(a))), integrator)
+    towards_y = render(_sphere_stage(tmp_path, True, (0.0, math.sin(a), math.cos(a))), integrator)
     c = (slice(16, 20), slice(22, 26))               # (the centre of the 48 x 36 image)
     assert np.abs(flat - plain).max() <= 1e-5 * plain.max()
     lambert_x = math.cos(math.radians(10.0)) / math.cos(math.radians(45.0))        # 1.39
@@ -215,7 +201,7 @@ def test_coordinates_that_do_not_vary_leave_the_normal_as_it_was(tmp_path, integ
     """Every corner at the same (s, t), or all on one line: no tangent frame (dp/ds is undefined), so the map is not
     applied (Storm's derivatives would be zero there too); the image is the unmapped quad's, and finite."""
     for coords in ([(0.3, 0.6)] * 4, [(0, 0), (0.5, 0.5), (1, 1), (0.5, 0.5)]):
-        mapped = _render(_stage(tmp_path, True, coords), integrator)
-        plain = _render(_stage(tmp_path, False, coords), integrator)
+        mapped = render(_stage(tmp_path, True, coords), integrator)
+        plain = render(_stage(tmp_path, False, coords), integrator)
         assert np.isfinite(mapped).all() and plain.max() > 0.05
         assert np.abs(mapped - plain).max() <= 1e-6 * plain.max()

@@ -6,12 +6,11 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdShade
 
-from rtc.renderer.host.render import Renderer
-from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import exr_file
+from tests.renderer.usd_stages import light_and_camera, render
 
 CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
 CHANNELS = (0.9, 0.2, 0.7, 0.5)          # r, g, b, a of the constant image
@@ -49,26 +48,6 @@ def _material(st, path, constants=None, textured=None, image=None):
     return mat
 
 
-def _lit(st):
-    UsdGeom.SetStageUpAxis(st, 'Y')
-    light = UsdLux.RectLight.Define(st, '/Light')
-    light.CreateIntensityAttr(20.0)
-    light.CreateWidthAttr(1.0)
-    light.CreateHeightAttr(1.0)
-    light.AddTranslateOp().Set(Gf.Vec3d(0.4, 2.0, 0.3))
-    light.AddRotateXOp().Set(-90.0)
-    cam = UsdGeom.Camera.Define(st, '/Cam')
-    cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 3.0, 3.0))
-    cam.AddRotateXOp().Set(-45.0)
-    return st
-
-
-def _render(st, integrator, spp=4):
-    with Renderer(read_stage(st), threads=1) as r:
-        return r.render(RenderOptions(width=48, height=36, spp=spp, integrator=integrator, max_depth=3,
-                                      threads=1)).image.astype(np.float64)
-
-
 def _metal_plane(tmp_path, textured: bool, coat: bool = False):
     """A plane of roughness g and metallic b of CHANNELS (`coat`: a plastic of clearcoat r and clearcoatRoughness
     a), from the image or authored."""
@@ -81,15 +60,15 @@ def _metal_plane(tmp_path, textured: bool, coat: bool = False):
         mat = _material(st, '/M', {'diffuseColor': (0.9, 0.6, 0.3),
                                    **{name: CHANNELS['rgba'.index(c)] for name, c in inputs.items()}})
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/P', -1.5, 1.5, (-1.5, 1.5)).GetPrim()).Bind(mat)
-    return _lit(st)
+    return light_and_camera(st)
 
 
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
 @pytest.mark.parametrize('coat', [False, True])
 def test_scalar_textures_render_as_their_channels_authored(tmp_path, integrator, coat):
     """Roughness and metallic, or clearcoat and clearcoatRoughness, from an image's channels."""
-    a = _render(_metal_plane(tmp_path, True, coat), integrator)
-    b = _render(_metal_plane(tmp_path, False, coat), integrator)
+    a = render(_metal_plane(tmp_path, True, coat), integrator)
+    b = render(_metal_plane(tmp_path, False, coat), integrator)
     assert b.max() > 0.05
     assert np.abs(a - b).max() <= 1e-4 * b.max()
 
@@ -131,7 +110,7 @@ def test_each_output_reads_the_specs_channel_of_an_image(tmp_path, channels, exp
     st = Usd.Stage.CreateInMemory()
     mat = _material(st, '/M', textured={'roughness': 'r'}, image=exr_file(tmp_path / f'c{channels}.exr', pixels))
     UsdShade.MaterialBindingAPI.Apply(_quad(st, '/A', -1, 1, (-1, 1)).GetPrim()).Bind(mat)
-    _lit(st)
+    light_and_camera(st)
     built = build(read_stage(st))
     try:
         S = built.data
@@ -161,7 +140,7 @@ def _cutout(tmp_path, cut: bool, glow: bool):
         mat = _material(st, '/White', {'diffuseColor': (0.9, 0.9, 0.9)})
         quad = _quad(st, '/Card', 0.0, 0.8, (-0.5, 0.5), y=0.4)
     UsdShade.MaterialBindingAPI.Apply(quad.GetPrim()).Bind(mat)
-    return _lit(st)
+    return light_and_camera(st)
 
 
 @pytest.mark.parametrize('integrator, glow', [('path', False), ('path', True), ('cook', True)])
@@ -170,8 +149,8 @@ def test_an_opacity_threshold_cuts_the_surface_out(tmp_path, integrator, glow):
     opaque (as they see a constant opacity < 1), so it is compared on a floor that glows, where no shadow falls.
     Bilinear lookups blur the cut over one texel's width (the texture is 2 texels wide): the images are compared
     away from it."""
-    a = _render(_cutout(tmp_path, True, glow), integrator, spp=16)
-    b = _render(_cutout(tmp_path, False, glow), integrator, spp=16)
+    a = render(_cutout(tmp_path, True, glow), integrator, spp=16)
+    b = render(_cutout(tmp_path, False, glow), integrator, spp=16)
     assert b[..., 0].mean() > 0.05
     cols = np.r_[0:18, 30:48]                                 # away from the cut's blurred band
     assert np.abs(a[:, cols] - b[:, cols]).mean() <= 0.03 * b[:, cols].mean()
