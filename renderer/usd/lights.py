@@ -72,6 +72,10 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     if abs(np.linalg.det(to_world[:3, :3])) < 1e-300:
         warn(f'{path}: singular light transform; light ignored')
         return None
+    for name, attr in (('diffuse', api.GetDiffuseAttr()), ('specular', api.GetSpecularAttr())):
+        scale = attr.Get(time) if attr and attr.HasAuthoredValue() else None
+        if scale is not None and scale != 1.0:            # (a per-lobe gain: not physical, and MIS needs one emission)
+            warn(f'{path}.inputs:{name}: {scale:g} is not applied; the light lights every lobe alike')
     if kind in ('DomeLight', 'DomeLight_1'):
         m = to_world
         if kind == 'DomeLight_1':

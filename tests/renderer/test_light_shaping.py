@@ -154,3 +154,15 @@ def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
         assert all(choose_lights(L, above, (0.0, -1.0, 0.0), u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50))
     finally:
         built.close()
+
+
+def test_a_lights_per_lobe_gain_is_named_not_applied():
+    """UsdLux's inputs:diffuse / inputs:specular (a gain of the light on one kind of lobe) is not physical: not
+    applied, and said so where it is not 1."""
+    st = Usd.Stage.CreateInMemory()
+    light = UsdLux.SphereLight.Define(st, '/L')
+    light.CreateDiffuseAttr(0.5)
+    light.CreateSpecularAttr(1.0)
+    warnings = read_stage(st).warnings
+    assert '/L.inputs:diffuse: 0.5 is not applied; the light lights every lobe alike' in warnings
+    assert not [w for w in warnings if 'inputs:specular' in w]
