@@ -44,7 +44,9 @@ An emissiveColor driven by a texture (UsdUVTexture) emits the texture's value at
 radiance above is the emissiveColor's factor, and the kernel looks the texture up at the point a light
 sample draws (the triangle and barycentrics on a mesh, its st primvar interpolated; a sphere's direction
 in its own frame) as `kernel/shapes.surface` does at a ray's hit, so both strategies see one emission.
-The light tree's phi uses the texture's mean absolute value (`texture_mean`).
+The light tree's phi uses the texture's mean absolute value (`texture_mean`).  An opacity driven by a texture (a
+cut-out, `opacityThreshold`) multiplies the emission at each point in the same way (`SLI_OPACITY_MAT`): light samples
+see a(x) E(x), the average of what rays, which find the point with probability a(x), see.
 
 A cubic curves gprim (UsdGeom.BasisCurves drawn as Embree's round curves) is a light a segment at each
 placement, a placement's segments consecutive lights (a hit's light: its gprim slot's first plus its primitive,
@@ -53,7 +55,7 @@ shading point and uniformly in angle around the tube's circle, the density per u
 point, J the tube's area element there (`kernel/curves.tube_point`, `kernel/surface_lights._curve_point`), for
 light samples and hits alike.  Its tree bounds: the control points' box grown by
 its largest radius, phi its largest projected area (about A / pi) times its luminance.  Only placements by a
-similarity (the world tube is the tube of the world curve) that do not move, and untextured emission.
+similarity (the world tube is the tube of the world curve) that do not move, and untextured emission and opacity.
 
 Not lights (their emission is still added where a ray hits them, with weight 1): materials whose
 emission has no luminance; emissive linear curves and ribbons, curves placed by a non-uniform scale or moving, or
@@ -120,10 +122,11 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
     """(emission of the light that gprim slot `slot` (gprim g) is at each placement row of `rows`, mask of
     the rows where it is a light), with the material resolution of `kernel/shapes.surface`.  A see-through
     UsdPreviewSurface (opacity a < 1: rays find it with probability a, `path.trace_path`) emits a times its
-    emission on average: the light's.  The emission rows are (R, 5): the radiance (times its emissiveColor
-    texture where it has one, column 3, else -1: the kernel looks the texture up at each point) and the
+    emission on average: the light's.  The emission rows are (R, 6): the radiance (times its emissiveColor
+    texture where it has one, column 3, else -1: the kernel looks the texture up at each point), the
     luminance of its mean over the surface (the light tree's phi; a textured one's from its texture's
-    mean value, `means`: {texture: mean}, filled as needed)."""
+    mean value, `means`: {texture: mean}, filled as needed), and the material whose opacity texture multiplies
+    the emission at each point (column 5, -1: none; the tree's phi leaves it out: an upper bound)."""
     base = data.in_matset[rows]
     mat = np.full(len(rows), -1, np.int64)
     has = base >= 0
@@ -140,10 +143,9 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
             means[int(k)] = texture_mean(data, int(k))
         mean[tex == k] = means[int(k)]
     lum = (np.abs(emit) * mean) @ _LUM
-    # (an opacity texture makes its emission vary as light samples do not see it: such a surface is found by
-    # BSDF rays alone, weight 1, as before emissive surfaces were lights)
-    shaded = data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] < 0
-    return np.column_stack([emit, tex, lum]), (lum > 0.0) & np.all(np.isfinite(emit), 1) & shaded
+    # an opacity texture: the kernel multiplies the emission by the material's opacity at each point (column 5)
+    cut = (data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0) & (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE)
+    return np.column_stack([emit, tex, lum, np.where(cut, mat, -1)]), (lum > 0.0) & np.all(np.isfinite(emit), 1)
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
@@ -249,7 +251,7 @@ def _curve_lights(data, rows: np.ndarray, slot: int, g: int, means: dict, static
     m = data.in_xf[rows, 0]
     scale = _similarity(m)
     tube = not data.gp_flags[g] & (GP_LINEAR | GP_RIBBON)
-    lit = ok & static[rows] & (scale > 0.0) & (emit[:, 3] < 0) & tube
+    lit = ok & static[rows] & (scale > 0.0) & (emit[:, 3] < 0) & (emit[:, 5] < 0) & tube
     off = int(data.gp_off[g])
     ctrl = np.asarray(data.crv[off:off + n], np.float64)
     placed = []
@@ -328,7 +330,7 @@ def _ball_rows(data, balls: list, first: int):
              AXES=np.where(ball[:, None], 0.0, a.reshape(-1, 9)))
         ids = [_texture_ids(data, row, slot, emit[k]) for k, row in enumerate(rows)]
         SURFACE_LIGHT_I.write_rows(i, ELLIPSOID=~ball, EMISSION_TEX=np.repeat([d['EMISSION_TEX'] for d in ids], n),
-             GPRIM=np.repeat([d['GPRIM'] for d in ids], n))
+             GPRIM=np.repeat([d['GPRIM'] for d in ids], n), OPACITY_MAT=np.repeat([d['OPACITY_MAT'] for d in ids], n))
         extent = np.where(ball[:, None], r[:, None], np.sqrt((a * a).sum(2)))
         projected = np.pi * r ** 2                           # an ellipsoid's largest projected area: pi s1 s2
         if not ball.all():
@@ -420,7 +422,8 @@ def _mover_rows(data, movers: list, first: int, n_tri: int):
 def _texture_ids(data, row: int, slot: int, emit: np.ndarray) -> dict:
     """The SLI fields of a light's emissiveColor texture (-1: none) and of its gprim (for the texture
     coordinates of a point on it: its st primvar)."""
-    return {'EMISSION_TEX': int(emit[3]), 'GPRIM': int(data.pr_gp_start[data.in_proto[row]]) + slot}
+    return {'EMISSION_TEX': int(emit[3]), 'GPRIM': int(data.pr_gp_start[data.in_proto[row]]) + slot,
+            'OPACITY_MAT': int(emit[5])}
 
 
 def _curve_rows(data, tubes: list, first: int):
@@ -438,6 +441,7 @@ def _curve_rows(data, tubes: list, first: int):
         i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
         SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], AREA=area, CTRL=q.reshape(-1, 16))
         SURFACE_LIGHT_I.write_rows(i, CURVE=np.ones(R * n, np.int64), EMISSION_TEX=np.full(R * n, -1, np.int64),
+                                   OPACITY_MAT=np.full(R * n, -1, np.int64),
                                    GPRIM=np.repeat([_texture_ids(data, row, slot, emit[k])['GPRIM']
                                                     for k, row in enumerate(rows)], n))
         reach = np.abs(q[:, :, 3]).max(1)[:, None]

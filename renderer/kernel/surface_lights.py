@@ -33,10 +33,11 @@ from .curves import evaluate, tube_area_element, tube_point
 from .features import F_CURVES, F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
+from .materials import opacity
 from .shapes import sphere_st, triangle_st
 from .tables import (GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS,
                      SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID, SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST,
-                     SLI_INST_PRIM, SLI_MOVING)
+                     SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
 from .textures import sample_texture
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
 from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
@@ -65,7 +66,7 @@ def _triangle(cdf, first, n, u):
 
 @nb.njit(**_JIT)
 def _triangle_point(L, j, u1, u2):
-    """(point, unit normal, (triangle, barycentrics b1, b2): where it is, `_texture_at`) uniformly by area
+    """(point, unit normal, (triangle, barycentrics b1, b2): where it is, `_st_at`) uniformly by area
     on the triangles of surface light j."""
     first = L.sl_i[j, SLI_FIRST]
     i, u = _triangle(L.sl_cdf, first, L.sl_i[j, SLI_COUNT], u1)
@@ -262,15 +263,32 @@ def _moving_area(L, tr, j, time, ng):
 
 
 @nb.njit(**_JIT)
-def _texture_at(S, L, j, at):
-    """The emissiveColor texture of surface light j at a point of it, `at`: (triangle, b1, b2) on a mesh,
-    the world point on a static sphere or ellipsoid, the object-space direction from the centre on a
-    moving sphere; its texture coordinates are those `shapes.surface` gives a ray's hit there."""
+def _st_at(S, L, j, at):
+    """The texture coordinates of surface light j at a point of it, `at`: (triangle, b1, b2) on a mesh, the world
+    point on a static sphere or ellipsoid, the object-space direction from the centre on a moving sphere: those
+    `shapes.surface` gives a ray's hit there."""
     if L.sl_i[j, SLI_COUNT] == 0:
-        st = sphere_st(normalize(at if L.sl_i[j, SLI_MOVING] != 0 else _object_dir(L, j, at)))
-    else:
-        st = triangle_st(S, L.sl_i[j, SLI_GPRIM], int(at[0]), at[1], at[2])
-    return sample_texture(S, L.sl_i[j, SLI_EMISSION_TEX], st[0], st[1])
+        return sphere_st(normalize(at if L.sl_i[j, SLI_MOVING] != 0 else _object_dir(L, j, at)))
+    return triangle_st(S, L.sl_i[j, SLI_GPRIM], int(at[0]), at[1], at[2])
+
+
+@nb.njit(**_JIT)
+def _emission_at(S, L, j, at):
+    """The radiance of surface light j at a point of it, `at` (`_st_at`): its factor, times its emissiveColor
+    texture there, times its material's textured opacity there (a(x) E(x): what rays, which find the point with
+    probability a(x), see on average)."""
+    Le = (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2])
+    tex, mat = L.sl_i[j, SLI_EMISSION_TEX], L.sl_i[j, SLI_OPACITY_MAT]
+    if not (F_TEXTURES and (tex >= 0 or mat >= 0)):
+        return Le
+    st = _st_at(S, L, j, at)
+    if tex >= 0:
+        c = sample_texture(S, tex, st[0], st[1])
+        Le = (Le[0] * c[0], Le[1] * c[1], Le[2] * c[2])
+    if mat >= 0:
+        a = opacity(S, mat, st)
+        Le = (Le[0] * a, Le[1] * a, Le[2] * a)
+    return Le
 
 
 @nb.njit(**_JIT)
@@ -295,10 +313,7 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
         at = q
     else:
         q, nrm, at = _triangle_point(L, j, u1, u2)
-    Le = (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2])
-    if F_TEXTURES and L.sl_i[j, SLI_EMISSION_TEX] >= 0:
-        c = _texture_at(S, L, j, at)
-        Le = (Le[0] * c[0], Le[1] * c[1], Le[2] * c[2])
+    Le = _emission_at(S, L, j, at)
     wi, d, d2 = toward(p, q)
     if d2 <= 0.0 or not area > 0.0:
         return NONE

@@ -166,3 +166,44 @@ def test_roughness_test_usdz_reads_its_roughness_textures():
     tex = [m for m in desc.materials if m.path.split('/')[-1].startswith('Tex')]
     assert len(tex) == 3 and all(m.scalar_textures[0] >= 0 and m.roughness == 1.0 for m in tex)
     assert not [w for w in desc.warnings if 'not supported' in w]
+
+
+def _glowing_card(tmp_path, cut: bool):
+    """A card glowing warm over a grey floor (faintly lit by the rect light): cut out by its opacity texture's alpha
+    (opacityThreshold 0.5: its half x > 0 stays), or its half x > 0 as geometry."""
+    st = Usd.Stage.CreateInMemory()
+    floor = _material(st, '/Grey', {'diffuseColor': (0.6, 0.6, 0.6)})
+    UsdShade.MaterialBindingAPI.Apply(_quad(st, '/Floor', -3, 3, (-3, 3)).GetPrim()).Bind(floor)
+    glow = {'diffuseColor': (0.0, 0.0, 0.0), 'emissiveColor': (4.0, 3.0, 2.0)}
+    if cut:
+        image = exr_file(tmp_path / 'cut.exr', np.array([[[1, 1, 1, 0.2], [1, 1, 1, 0.8]]], np.float32))
+        mat = _material(st, '/Glow', {**glow, 'opacityThreshold': 0.5}, {'opacity': 'a'}, image)
+        card = _quad(st, '/Card', -0.8, 0.8, (-0.5, 0.5), y=0.6)
+    else:
+        mat = _material(st, '/Glow', glow)
+        card = _quad(st, '/Card', 0.0, 0.8, (-0.5, 0.5), y=0.6)
+    UsdShade.MaterialBindingAPI.Apply(card.GetPrim()).Bind(mat)
+    return light_and_camera(st, intensity=1.0)
+
+
+def test_a_glowing_cut_out_is_a_light_that_lights_as_the_geometry_cut(tmp_path):
+    """An emissive card cut out by an opacity texture is a light of the path integrator (its emission times its
+    opacity at each point: `kernel/surface_lights._emission_at`; it was found by BSDF rays alone): the floor under it
+    is lit as under the card cut as geometry, and light sampling, BSDF sampling and MIS agree on it."""
+    from rtc.renderer.host.render import Renderer
+    from rtc.renderer.options import RenderOptions
+    desc = read_stage(_glowing_card(tmp_path, True))
+    with Renderer(desc, threads=2) as r:
+        assert r.path_lights().n_surface == 1
+
+        def mean(strategy, spp):
+            return np.mean([r.render(RenderOptions(width=48, height=36, spp=spp, seed=s, integrator='path', max_depth=1,
+                                                   strategy=strategy, sampler='independent')).image.astype(np.float64)
+                            for s in range(2)], 0)
+        nee, bsdf, mis = mean('nee', 128), mean('bsdf', 512), mean('mis', 128)
+    assert nee.mean() == pytest.approx(mis.mean(), rel=0.015) and bsdf.mean() == pytest.approx(mis.mean(), rel=0.02)
+    a = render(_glowing_card(tmp_path, True), 'path', spp=32)
+    b = render(_glowing_card(tmp_path, False), 'path', spp=32)
+    rows = np.r_[24:36]                                       # the floor in front of the card (its glow, no card)
+    assert b[rows].mean() > 0.05
+    assert a[rows].mean() == pytest.approx(b[rows].mean(), rel=0.03)
