@@ -209,6 +209,19 @@ class Texture:
 POINT, SPHERE, RECT, DISK, DISTANT, DOME, CYLINDER = range(7)
 
 
+@dataclass(frozen=True, eq=False)
+class IesProfile:
+    """A luminaire's photometric profile (an IES LM-63 file of photometric type C, `usd/ies.py`): its luminous
+    intensity (candela) at each vertical angle (radians from the nadir: 0 along the light's -Z axis) and
+    horizontal angle (radians, 0 to 2 pi: the file's symmetries unfolded), interpolated bilinearly between them;
+    0 at vertical angles the file does not cover."""
+    path: str                               # resolved file path
+    vertical: np.ndarray                    # float64 (nv,) ascending, within [0, pi]
+    horizontal: np.ndarray                  # float64 (nh,) ascending, from 0 to 2 pi
+    candela: np.ndarray                     # float64 (nh, nv)
+    mean: float                             # the mean intensity over the (hemi)sphere it covers (`ies.mean_intensity`)
+
+
 @dataclass
 class Light:
     path: str
@@ -226,6 +239,12 @@ class Light:
     course_intensity: Optional[tuple] = None  # a course light (RtcCourseLightAPI): the course's intensity I
     # UsdLux.ShapingAPI: (cone angle in degrees off the -Z axis, cone softness, focus, focus tint rgb); None: unshaped
     shaping: Optional[tuple] = None
+    # UsdLux.ShapingAPI's IES profile: its intensities multiply the emission towards each direction (divided by the
+    # profile's mean when ies:normalize is on: `ies_gain`), at the vertical angle ies:angleScale maps the
+    # direction's to (`kernel/ies_profiles.py`)
+    ies: Optional[IesProfile] = None
+    ies_angle_scale: float = 0.0
+    ies_gain: float = 1.0
     # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space
     # area when normalize is on); a POINT light's `radiance` is its radiant intensity I, so the irradiance
     # at distance d facing it is I / d**2.  DISTANT: irradiance E on a surface facing it.

@@ -32,7 +32,7 @@ SceneData = namedtuple('SceneData', [
     'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
     'mat_i', 'mat_f',
     'tex_i', 'tex_f', 'tex_data',
-    'li_type', 'li_f', 'li_tex',
+    'li_type', 'li_f', 'li_tex', 'li_ies',
     'background', 'offset_scale',
 ])
 
@@ -193,6 +193,8 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
     li_type = np.full(max(nl, 1), -1, np.int32)
     li_f = np.zeros((max(nl, 1), LIGHT_F.width), np.float64)
     li_tex = np.full(max(nl, 1), -1, np.int32)
+    li_f[:, LIGHT_F.offset['IES']] = -1.0
+    profiles, blocks, size = {}, [], 0                # each IES profile once (lights share them)
     for k, l in enumerate(lights):
         m = np.array(l.matrix, np.float64)
         m3 = m[:3, :].copy()
@@ -218,7 +220,18 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
             cone, softness, focus, tint = l.shaping
             theta = np.radians(cone)
             LIGHT_F.write(li_f[k], SHAPED=1.0, CONE=(theta, theta * (1.0 - softness)), FOCUS=focus, TINT=tint)
-    return li_type, li_f, li_tex
+        if l.ies is not None:
+            if id(l.ies) not in profiles:
+                p = l.ies
+                profiles[id(l.ies)] = size
+                blocks.append(np.concatenate([[len(p.vertical), len(p.horizontal)], p.vertical, p.horizontal,
+                                              p.candela.ravel()]))
+                size += len(blocks[-1])
+            if l.shaping is None:                    # (no cone: one past every angle)
+                LIGHT_F.write(li_f[k], SHAPED=1.0, CONE=(4.0, 4.0), FOCUS=0.0)
+            LIGHT_F.write(li_f[k], IES=(profiles[id(l.ies)], 1.0 + l.ies_angle_scale, l.ies_gain))
+    li_ies = np.ascontiguousarray(np.concatenate(blocks) if blocks else np.zeros(1), np.float64)
+    return li_type, li_f, li_tex, li_ies
 
 
 def _container_shapes(c: D.Container, ctr: np.ndarray):
@@ -521,7 +534,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
 
     mat_i, mat_f = _material_tables(desc.materials)
     tex_i, tex_f, tex_data = _texture_tables(desc.textures)
-    li_type, li_f, li_tex = _light_tables(desc.lights, origin)
+    li_type, li_f, li_tex, li_ies = _light_tables(desc.lights, origin)
     geom_off = np.cumsum([0] + [len(g) for g in pr_geom]).astype(np.int64)
     gp_material = np.array(tables.material, np.int32)
     gp_material[gp_material < 0] = len(mat_i) - 1       # unbound -> default material
@@ -542,7 +555,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         in_matset=np.ascontiguousarray(in_matset[perm], np.int64) if len(perm) else np.zeros(1, np.int64),
         matset=np.array(flat or [-1], np.int32), grp_base=grp_base,
         mat_i=mat_i, mat_f=mat_f, tex_i=tex_i, tex_f=tex_f, tex_data=tex_data,
-        li_type=li_type, li_f=li_f, li_tex=li_tex,
+        li_type=li_type, li_f=li_f, li_tex=li_tex, li_ies=li_ies,
         background=np.array(desc.background, np.float64),
         offset_scale=np.array([offset_scale(xf, in_proto, np.array(radii, np.float64))], np.float64),
     )

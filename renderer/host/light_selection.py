@@ -16,7 +16,7 @@ tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (
 of the scene's bounds.  Luminances of the RGB values' magnitudes: a light of negative radiance (a
 subtractive light, as the course integrator reads it) is chosen by how much it changes the image, so that
 light samples find it as BSDF samples do (an integrand of either sign is sampled in proportion to its
-magnitude).
+magnitude).  An IES profile multiplies a light's phi by its largest weight (`kernel/ies_profiles.py`).
 
 Lights are numbered as the scene's (`desc.lights`, the light table), then its emissive surfaces
 (`surface_first` on: `surface_lights.py`).
@@ -60,6 +60,8 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
             out[k] = np.pi * radius ** 2 * y
         elif l.type == D.DOME:
             out[k] = 4 * np.pi ** 2 * radius ** 2 * y * dome_mean.get(k, 1.0)
+        if l.ies is not None:                        # (its profile's peak: the largest intensity still)
+            out[k] *= l.ies_gain * float(l.ies.candela.max())
     return np.where(np.isfinite(out) & (out > 0), out, 0.0)
 
 

@@ -56,6 +56,7 @@ class Features:
     lux_lights: bool         # a light the cook integrator shades with UsdLux radiometry (every light in path)
     dome_texture: bool       # a dome light with a lat-long image
     shaping: bool            # a light shaped by UsdLux.ShapingAPI (a spotlight's cone, focus: `lights.shaped`)
+    ies: bool                # a light shaped by an IES profile (`ies_profiles.py`)
     light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
     surface_lights: bool     # path: an emissive surface is a light (host/surface_lights.py)
     textures: bool           # a material with an image texture
@@ -95,7 +96,7 @@ class Features:
 
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
-               lux_lights=True, dome_texture=True, shaping=True, light_shapes=True, surface_lights=True, textures=True,
+               lux_lights=True, dome_texture=True, shaping=True, ies=True, light_shapes=True, surface_lights=True, textures=True,
                normal_maps=True, opacity=True, emission=True, clearcoat=True, spheres=True, curves=True, normals=True,
                uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
 

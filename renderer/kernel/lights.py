@@ -16,7 +16,8 @@ point contributes nothing.
 A light with UsdLux.ShapingAPI (`shaped`) is a spotlight: its emission towards a direction at angle theta off its
 -Z axis is multiplied by the cone's cut-off, 1 - smoothstep(theta; angle (1 - softness), angle), so 1 inside the
 cone's soft edge, 0 past its angle, as Pixar's hdEmbree shapes it, and with a focus f by the off-axis cosine power
-lerp(focusTint, 1, cos(theta)^f).  Both integrators apply it to every light sample, and the path integrator to BSDF
+lerp(focusTint, 1, cos(theta)^f), and with an IES profile by the profile's intensity towards the direction
+(`ies_profiles.ies_weight`).  Both integrators apply it to every light sample, and the path integrator to BSDF
 rays that find the light's shape, so that the two estimators agree.
 """
 import math
@@ -25,10 +26,11 @@ import numba as nb
 
 from .. import description as D
 from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE,
-                       F_LIGHTS, F_LUX_LIGHTS, F_SHAPING)
+                       F_IES, F_LIGHTS, F_LUX_LIGHTS, F_SHAPING)
+from .ies_profiles import ies_weight
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_H, LF_LENGTH, LF_M, LF_RAD,
-                     LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
+from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_H, LF_IES, LF_LENGTH, LF_M,
+                     LF_RAD, LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
 from .textures import sample_latlong
 from .vecmath import dot, normalize, onb, sub, to_world
 
@@ -65,6 +67,8 @@ def shaped(S, k, wi, Le):
     elif theta > lo:
         x = (theta - lo) / (hi - lo)
         f = 1.0 - x * x * (3.0 - 2.0 * x)
+    if F_IES and lf[k, LF_IES] >= 0.0 and f > 0.0:
+        f *= ies_weight(S.li_ies, lf, k, dot(wi, normalize(_col(lf, k, 0))), dot(wi, normalize(_col(lf, k, 1))), c)
     focus = lf[k, LF_FOCUS]
     if focus > 0.0:
         g = max(c, 0.0) ** focus

@@ -29,6 +29,7 @@ import numpy as np
 from pxr import Usd, UsdGeom, UsdLux
 
 from ..description import CYLINDER, DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
+from .ies import IesError, read_ies
 
 Warn = Callable[[str], None]
 LIGHT_TYPES = ('SphereLight', 'RectLight', 'DiskLight', 'CylinderLight', 'DistantLight', 'DomeLight',
@@ -98,6 +99,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
     if light is not None:
         light.shaping = _shaping(prim, path, light.type, time, warn)
+        _ies(light, prim, time, warn)
     course = prim.GetAttribute('rtc:intensity')
     if light is not None and course and course.Get(time) is not None:
         light.course_intensity = _rgb(course.Get(time))
@@ -158,7 +160,7 @@ def _shaping(prim: Usd.Prim, path: str, kind: int, time: Usd.TimeCode, warn: War
     applied by `kernel/lights.shaped`), None where it shapes nothing: no ShapingAPI, a cone of 180 degrees or more
     without focus, or a DistantLight (whose emission has one direction: warned).  Values past their range are
     clamped (angle 0-180, softness 0-1, focus >= 0); one that is not finite leaves the light unshaped, warned.  An
-    IES profile is not read (warned): the cone and the focus are applied without it."""
+    IES profile is read apart (`_ies`)."""
     api = UsdLux.ShapingAPI(prim)
     if not prim.HasAPI(UsdLux.ShapingAPI) and not any(
             a.HasAuthoredValue() for a in (api.GetShapingConeAngleAttr(), api.GetShapingFocusAttr())):
@@ -174,9 +176,6 @@ def _shaping(prim: Usd.Prim, path: str, kind: int, time: Usd.TimeCode, warn: War
     if not np.all(np.isfinite(values)):
         warn(f'{path}: a ShapingAPI input that is not finite ({values.tolist()}); the light emits unshaped')
         return None
-    ies = api.GetShapingIesFileAttr().Get(time)
-    if ies is not None and ies.path:
-        warn(f'{path}: the IES profile {ies.path} is not supported; its cone and focus are applied without it')
     cone, softness = min(max(float(cone), 0.0), 180.0), min(max(float(softness), 0.0), 1.0)
     focus = max(float(focus), 0.0)
     if cone >= 180.0 and focus == 0.0:
@@ -185,6 +184,42 @@ def _shaping(prim: Usd.Prim, path: str, kind: int, time: Usd.TimeCode, warn: War
         warn(f'{path}: ShapingAPI on a DistantLight (one direction) is not applied')
         return None
     return cone, softness, focus, tuple(float(c) for c in tint)
+
+
+def _ies(light: Light, prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> None:
+    """Light.ies, ies_angle_scale and ies_gain from `inputs:shaping:ies:file`, `angleScale` and `normalize` (the
+    gain: 1 / the profile's mean intensity when normalised, else 1: the profile's candela multiply the emission, as
+    in hdEmbree).  A file that cannot be found or read leaves the light without a profile, warned with the reason
+    (`usd/ies.py`); so does a DistantLight's (one direction).  An angleScale that is not finite or at most -1 (a
+    mapping of no angle) is warned and not applied."""
+    api = UsdLux.ShapingAPI(prim)
+    attr = api.GetShapingIesFileAttr()
+    asset = attr.Get(time) if attr else None
+    if asset is None or not asset.path:
+        return
+    where = f'{light.path}.inputs:shaping:ies:file'
+    if light.type == DISTANT:
+        warn(f'{where}: an IES profile on a DistantLight (one direction) is not applied')
+        return
+    if not asset.resolvedPath:
+        warn(f'{where}: "{asset.path}" not found; the light emits without its profile')
+        return
+    try:
+        light.ies = read_ies(asset.resolvedPath)
+    except IesError as e:
+        warn(f'{where}: {e}; the light emits without its profile')
+        return
+    scale_attr, norm_attr = api.GetShapingIesAngleScaleAttr(), api.GetShapingIesNormalizeAttr()
+    scale = scale_attr.Get(time) if scale_attr else None
+    if scale is not None and not (math.isfinite(scale) and scale > -1.0):
+        warn(f'{light.path}.inputs:shaping:ies:angleScale: {scale:g} maps no angle (finite and > -1 do); not applied')
+        scale = None
+    light.ies_angle_scale = float(scale or 0.0)
+    if norm_attr and norm_attr.Get(time):
+        if light.ies.mean > 0.0:
+            light.ies_gain = 1.0 / light.ies.mean
+        else:
+            warn(f'{where}: the profile emits nothing; normalize leaves it so')
 
 
 def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Optional[Light]:

@@ -127,10 +127,6 @@ def test_the_reader_reads_the_cone_and_focus_and_names_what_it_cannot_use():
     assert l.shaping is None and any(w.startswith('/L: a ShapingAPI input that is not finite') for w in warnings)
     (l,), warnings = _usd_light('DistantLight', **{'cone:angle': 20.0})
     assert l.shaping is None and '/L: ShapingAPI on a DistantLight (one direction) is not applied' in warnings
-    st = Usd.Stage.CreateInMemory()
-    light = UsdLux.SphereLight.Define(st, '/L')
-    UsdLux.ShapingAPI.Apply(light.GetPrim()).CreateShapingIesFileAttr(Sdf.AssetPath('lamp.ies'))
-    assert any(w.startswith('/L: the IES profile lamp.ies is not supported') for w in read_stage(st).warnings)
 
 
 def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
