@@ -109,6 +109,20 @@ def _fold_cones_python(w, cos_o, order, first, size, out):
         out[r] = (*cone[0], cone[1])
 
 
+def emitting_angle(light: D.Light) -> float:
+    """The angle off a light's -Z axis (radians) past which its shaping leaves no emission: its cone's, and its IES
+    profile's last vertical angle that emits (the next one's, where the profile falls to 0 between them), mapped back
+    through ies:angleScale (`kernel/ies_profiles.py`: theta_ies = pi - (pi - theta) / s); pi when nothing bounds it."""
+    theta = np.pi if light.shaping is None else min(np.pi, float(np.radians(light.shaping[0])))
+    p = light.ies
+    if p is not None:
+        lit = np.flatnonzero(p.candela.max(axis=0) > 0.0)
+        last = p.vertical[min(lit[-1] + 1, len(p.vertical) - 1)] if len(lit) else 0.0
+        s = 1.0 + light.ies_angle_scale
+        theta = min(theta, max(0.0, np.pi - s * (np.pi - float(last))) if last < np.pi else np.pi)
+    return theta
+
+
 def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
     """(indices of the bounded lights, list of (lo, hi, phi, cone, two_sided)) of the scene's
     lights with a position, in world (camera-relative) coordinates of the light table."""
@@ -134,9 +148,10 @@ def light_bounds(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray):
             r = li_f[k, LF_RADIUS] if l.type != D.POINT else 0.0
             lo, hi = c - r, c + r
             cone = ENTIRE
-            if l.shaping is not None and l.shaping[0] < 90.0:      # a spotlight: its cone about its -Z axis
+            theta = emitting_angle(l)
+            if theta < 0.5 * np.pi:                    # a spotlight, a downlight: its cone about its -Z axis
                 w = -m[:, 2] / max(float(np.linalg.norm(m[:, 2])), 1e-300)
-                cone = (w, float(np.cos(np.radians(l.shaping[0]))))
+                cone = (w, float(np.cos(theta)))
         idx.append(k)
         bounds.append((lo, hi, float(power[k]), cone, False))
     return idx, bounds

@@ -201,3 +201,43 @@ def test_the_stage_reader_reads_the_profile_next_to_the_layer_and_names_what_it_
     (l,), warnings = _stage(tmp_path, './lamp.ies', kind='DistantLight')
     assert l.ies is None and '/L.inputs:shaping:ies:file: an IES profile on a DistantLight (one direction) is not ' \
         'applied' in warnings
+
+
+@pytest.mark.parametrize('scale', [0.0, 0.2, -0.5])
+def test_the_light_trees_cone_of_a_profile_holds_all_it_emits(scale):
+    """`light_tree.emitting_angle`: past it (the profile's last lit vertical angle, mapped back through angleScale)
+    the kernel weighs the emission 0, and just inside it does not: the tree's cone is exact, so leaving the light out
+    where the cone cannot reach keeps the estimate unbiased."""
+    from rtc.renderer.host.light_tree import emitting_angle
+    from rtc.renderer.kernel.ies_profiles import ies_weight
+    from rtc.renderer.kernel.tables import LF_IES
+    prof = profile([0, 20, 40, 60, 90], [0], lambda t, p: np.where(t < 0.8, 100.0 - 50.0 * t, 0.0) + 0.0 * p)
+    light = _light(ies=prof, ies_angle_scale=scale)
+    theta = emitting_angle(light)
+    block = np.concatenate([[len(prof.vertical), len(prof.horizontal)], prof.vertical, prof.horizontal,
+                            prof.candela.ravel()])
+    lf = np.zeros((1, 64))
+    lf[0, LF_IES:LF_IES + 3] = (0.0, 1.0 + scale, 1.0)
+    for t, lit in ((theta - 1e-3, True), (theta + 1e-3, False)):
+        w = ies_weight(block, lf, 0, math.sin(t), 0.0, math.cos(t))
+        assert (w > 0.0) == lit, (t, w)
+    assert theta == pytest.approx(np.pi - (1.0 + scale) * (np.pi - np.radians(60.0)))
+
+
+def test_the_light_tree_leaves_out_a_downlight_above_it():
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    from rtc.renderer.kernel.light_tree import choose_lights, light_pmf
+    prof = profile([0, 30, 60], [0], lambda t, p: 100.0 + 0.0 * t * p)
+    down = _light(ies=prof)
+    lamp = D.Light(path='/lamp2', type=D.POINT, matrix=_down((2.0, 1.0, 0.0)), radiance=(1.0,) * 3)
+    desc = _floor(down)
+    desc.lights = [down, lamp]
+    built = build(desc)
+    try:
+        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
+        above, below = np.array([0.0, H + 1.0, 0.0]) - built.origin, np.array([0.3, 0.0, 0.2]) - built.origin
+        assert light_pmf(L, above, (0.0, -1.0, 0.0), 0) == 0.0 and light_pmf(L, below, (0.0, 1.0, 0.0), 0) > 0.0
+        assert all(choose_lights(L, above, (0.0, -1.0, 0.0), u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50))
+    finally:
+        built.close()
