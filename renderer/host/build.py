@@ -224,8 +224,10 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
             if id(l.ies) not in profiles:
                 p = l.ies
                 profiles[id(l.ies)] = size
-                blocks.append(np.concatenate([[len(p.vertical), len(p.horizontal)], p.vertical, p.horizontal,
-                                              p.candela.ravel()]))
+                h, c = p.horizontal, p.candela
+                if not np.any(c != c[:1]):           # the same all round: one row (`ies_profiles.ies_weight`)
+                    h, c = h[:1], c[:1]
+                blocks.append(np.concatenate([[len(p.vertical), len(h)], p.vertical, h, c.ravel()]))
                 size += len(blocks[-1])
             if l.shaping is None:                    # (no cone: one past every angle)
                 LIGHT_F.write(li_f[k], SHAPED=1.0, CONE=(4.0, 4.0), FOCUS=0.0)

@@ -11,7 +11,8 @@ angle theta to the profile's pi - (pi - theta) / (1 + a) (the UsdLux specificati
 
 `li_ies` (SceneData) holds each profile once (`host/build._light_tables`), a block from its offset: the counts of
 vertical and horizontal angles nv and nh, the vertical angles (radians, ascending), the horizontal angles (0 to
-2 pi), then the intensities, nh rows of nv.  A light's columns: LF_IES (its profile's offset, -1 without),
+2 pi), then the intensities, nh rows of nv; a profile the same all round is one row (nh = 1, its angle 0), and its
+horizontal angle is not computed.  A light's columns: LF_IES (its profile's offset, -1 without),
 LF_IES + 1 (1 + angleScale), LF_IES + 2 (its gain).
 """
 import math
@@ -52,11 +53,14 @@ def ies_weight(li_ies, lf, k, x, y, z):
     h0 = v0 + nv
     if theta < li_ies[v0] - 1e-12 or theta > li_ies[v0 + nv - 1] + 1e-12:
         return 0.0                                   # beyond the profile's vertical angles
+    j, tj = _bracket(li_ies, v0, nv, theta)
+    if nh == 1:                                      # the same all round: one row, no horizontal angle
+        c = h0 + 1 + j
+        return lf[k, LF_IES + 2] * (li_ies[c] + tj * (li_ies[c + 1] - li_ies[c]))
     phi = math.atan2(y, x)
     if phi < 0.0:
         phi += 2.0 * math.pi
     i, ti = _bracket(li_ies, h0, nh, phi)
-    j, tj = _bracket(li_ies, v0, nv, theta)
     c = h0 + nh + i * nv + j
     a = li_ies[c] + tj * (li_ies[c + 1] - li_ies[c])
     b = li_ies[c + nv] + tj * (li_ies[c + nv + 1] - li_ies[c + nv])
