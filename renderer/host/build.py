@@ -23,6 +23,7 @@ from .. import description as D
 from .embree import CurveGeometry, Device, InstanceGroup
 from ..kernel.trace import MASK_SURFACES
 from ..kernel.tables import LIGHT_F, MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, WRAP
+from .features import see_through
 from .gprim_tables import GprimTables
 
 SceneData = namedtuple('SceneData', [
@@ -33,7 +34,7 @@ SceneData = namedtuple('SceneData', [
     'mat_i', 'mat_f',
     'tex_i', 'tex_f', 'tex_data',
     'li_type', 'li_f', 'li_tex', 'li_ies',
-    'background', 'offset_scale',
+    'background', 'offset_scale', 'see_through',
 ])
 
 
@@ -560,7 +561,9 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         li_type=li_type, li_f=li_f, li_tex=li_tex, li_ies=li_ies,
         background=np.array(desc.background, np.float64),
         offset_scale=np.array([offset_scale(xf, in_proto, np.array(radii, np.float64))], np.float64),
+        see_through=np.zeros(1, np.int32),
     )
+    data.see_through[0] = see_through(data)          # (the cook integrator's shadow rays: `integrator._transmittance`)
     return BuiltScene(device=dev, prototypes=protos, top=top, data=data, origin=origin, motion_steps=K,
                       has_textures=bool(desc.textures), has_dome=bool(np.any(li_type == D.DOME)),
                       n_instances=len(perm), path_prototypes=kept_path)

@@ -3,7 +3,9 @@
 Each camera sample is one point of the whole integrand domain: pixel position (reconstruction
 filter), lens position (depth of field), time (motion blur), and per bounce one 2D sample per light
 (soft shadows), one 2D sample for the glossy / GGX direction and one for the discrete choices
-(Fresnel reflect-or-refract, transparency).  The sampler maps (pixel, sample index, dimension) to
+(Fresnel reflect-or-refract, transparency).  A shadow ray crosses partly transparent UsdPreviewSurfaces (opacity
+a < 1, which camera rays pass through with probability 1 - a) with their product of 1 - a (`_transmittance`),
+and stops at any other surface.  The sampler maps (pixel, sample index, dimension) to
 stratified or low-discrepancy numbers; dimensions are decorrelated by the sampler's per-pair
 scrambling.  Light transport is Whitted's plus Cook's distributions: direct light from every light
 at every hit, and one specular continuation (mirror, glossy, glaze, refraction) per bounce, chosen
@@ -35,18 +37,19 @@ from .. import description as D
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import bsdf_dim, choice_dim, light_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
-                       F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS)
+                       F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS, F_TEXTURES)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
-from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, preview_params,
-                        refract, sample_ggx_h, scalars, smith_g, _schlick)
+from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, opacity,
+                        preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
 from .normal_maps import mapped_normal
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
-from .shapes import corner_color, surface
-from .tables import C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_NORMAL_TEX, MI_VERTEX_COLOR
+from .shapes import corner_color, hit_gprim, surface
+from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX, MI_VERTEX_COLOR,
+                     S_OPACITY)
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
                     intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
@@ -57,6 +60,7 @@ from .vecmath import dot, normalize, offset_origin, onb, reflect
 RAYS_CAMERA, RAYS_SHADOW, RAYS_SECONDARY, BAD_SAMPLES, RAYS_SHADOW_PACKET = 0, 1, 2, 3, 4
 N_COUNTERS = 5
 SHADOW_EPS = 1e-5
+PASS_THROUGH_MAX = 64          # transparent surfaces a ray may cross (a path without a bounce, a shadow ray)
 
 
 @nb.njit(**INLINE_JIT)
@@ -240,6 +244,34 @@ def _light_sample(S, path, depth, k, n_lights, queue):
 
 
 @nb.njit(**STAGE_JIT)
+def _transmittance(S, tr, o, d, smax, time):
+    """The fraction of light that crosses the shadow ray (o, d) up to smax: 0 behind a surface that is not a partly
+    transparent UsdPreviewSurface, else the product of 1 - opacity of those it crosses (at the hit's texture
+    coordinates where a texture drives the opacity), as camera rays pass them.  Each crossing is a ray more."""
+    vis = 1.0
+    tn = 0.0
+    for _ in range(PASS_THROUGH_MAX + 1):
+        if not intersect1(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
+            return vis
+        hit = hit_of(tr.f, tr.u)
+        mat = hit_gprim(S, hit)[2]
+        if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE:
+            return 0.0
+        st = (0.0, 0.0)
+        if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:
+            st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
+        a = opacity(S, mat, st)
+        if a >= 1.0:
+            return 0.0
+        vis *= 1.0 - a
+        th = float(tr.f[TFAR])
+        tn = th + 1e-5 * max(th, 1e-3)
+        tr.counts[RAYS_SHADOW] += 1
+        record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, tn, smax, time)
+    return 0.0
+
+
+@nb.njit(**STAGE_JIT)
 def _direct_light(S, tr, path, sp, depth, state):
     """Direct light at a shading point, one sample per light (soft shadows from area lights), added
     to the radiance state.L with throughput state.T; returns the new L.  At the first hit (depth 0)
@@ -265,13 +297,21 @@ def _direct_light(S, tr, path, sp, depth, state):
         else:
             tr.counts[RAYS_SHADOW] += 1
             smax = dist * (1.0 - SHADOW_EPS) if dist < np.inf else np.inf
-            record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET if depth == 0 else RAYS_SHADOW, po, wi, 0.0, smax, time)
-            if depth == 0:               # first hit: traced later, in a packet
+            if F_OPACITY and S.see_through[0]:      # see-through surfaces: the shadow ray alone, through them
+                record_if(tr.rec, tr.tile, RAYS_SHADOW, po, wi, 0.0, smax, time)
+                vis = _transmittance(S, tr, po, wi, smax, time)
+                if vis == 0.0:
+                    continue
+                c = (vis * c[0], vis * c[1], vis * c[2])
+            elif depth == 0:             # first hit: traced later, in a packet
+                record_if(tr.rec, tr.tile, RAYS_SHADOW_PACKET, po, wi, 0.0, smax, time)
                 tr.counts[RAYS_SHADOW_PACKET] += 1
                 _enqueue_shadow(tr, path.lane, po, wi, smax, time, (tr_ * c[0], tg * c[1], tb * c[2]), MASK_ALL)
                 continue
-            if occluded1(tr.scene, tr.f, tr.u, po, wi, 0.0, smax, time):
-                continue
+            else:
+                record_if(tr.rec, tr.tile, RAYS_SHADOW, po, wi, 0.0, smax, time)
+                if occluded1(tr.scene, tr.f, tr.u, po, wi, 0.0, smax, time):
+                    continue
         Lr += tr_ * c[0]
         Lg += tg * c[1]
         Lb += tb * c[2]

@@ -46,8 +46,8 @@ from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS, F_TEXTURES)
-from .integrator import (BAD_SAMPLES, N_COUNTERS, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW, RAYS_SHADOW_PACKET,
-                         _enqueue_shadow, _flush_shadows, _shading_point)
+from .integrator import (BAD_SAMPLES, N_COUNTERS, PASS_THROUGH_MAX, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW,
+                         RAYS_SHADOW_PACKET, _enqueue_shadow, _flush_shadows, _shading_point)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
@@ -72,7 +72,6 @@ MIS, NEE_ONLY, BSDF_ONLY = 0, 1, 2
 # emission weights of `light_sampling.area_emission` (PrevVertex.mode)
 W_POWER, W_ONE, W_ZERO = 0, 1, 2
 RR_DEPTH = 3
-PASS_THROUGH_MAX = 64          # transparent surfaces a path may cross without a bounce
 SHADOW_EPS = 1e-5
 
 
