@@ -76,8 +76,8 @@ def compare(path: Path, prims: list[str], integrators: list[str], rounds: int, s
         renderers[profiled] = Renderer(desc, threads=1)
     try:
         for integ in integrators:
-            opts = RenderOptions(width=320, height=240, spp=spp, integrator=integ, max_depth=3 if integ == 'path' else 4,
-                                 threads=1)
+            opts = RenderOptions(width=320, height=240, spp=spp, integrator=integ,
+                                 max_depth=3 if integ == 'path' else 4, threads=1)
             for r in renderers.values():
                 r.render(RenderOptions(width=32, height=24, spp=1, integrator=integ, threads=1))
             t = {True: [], False: []}

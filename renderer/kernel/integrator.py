@@ -38,7 +38,7 @@ from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import bsdf_dim, choice_dim, light_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
                        F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS, F_TEXTURES)
-from .jit import INLINE_JIT, KERNEL_JIT, SHADING_JIT, STAGE_JIT
+from .jit import INLINE_JIT, KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT, STAGE_JIT
 from .lights import escaped_radiance, light_is_area, sample_course_light
 from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, opacity,
                         preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
@@ -243,6 +243,34 @@ def _light_sample(S, path, depth, k, n_lights, queue):
     return u1, u2
 
 
+@nb.njit(**SHADING_INLINE_JIT)
+def blocking_opacity(S, tr, o, d, time):
+    """The opacity a shadow ray (o, d) meets at its hit (in the tracer's ray buffer): a UsdPreviewSurface's (at the
+    hit's texture coordinates where a texture drives it), 1 for any other surface (course materials stop it)."""
+    hit = hit_of(tr.f, tr.u)
+    mat = hit_gprim(S, hit)[2]
+    if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE:
+        return 1.0
+    st = (0.0, 0.0)
+    if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:
+        st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
+    return opacity(S, mat, st)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def cross_surface(S, tr, o, d, smax, time, vis):
+    """After a shadow ray's hit (in the tracer's ray buffer), what crosses it: (vis times 1 - its opacity, 0 where it
+    stops the ray; the distance to trace on from, past the hit), the next ray counted."""
+    a = blocking_opacity(S, tr, o, d, time)
+    if a >= 1.0:
+        return 0.0, 0.0
+    th = float(tr.f[TFAR])
+    tn = th + 1e-5 * max(th, 1e-3)
+    tr.counts[RAYS_SHADOW] += 1
+    record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, tn, smax, time)
+    return vis * (1.0 - a), tn
+
+
 @nb.njit(**STAGE_JIT)
 def _transmittance(S, tr, o, d, smax, time):
     """The fraction of light that crosses the shadow ray (o, d) up to smax: 0 behind a surface that is not a partly
@@ -253,21 +281,9 @@ def _transmittance(S, tr, o, d, smax, time):
     for _ in range(PASS_THROUGH_MAX + 1):
         if not intersect1(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
             return vis
-        hit = hit_of(tr.f, tr.u)
-        mat = hit_gprim(S, hit)[2]
-        if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE:
+        vis, tn = cross_surface(S, tr, o, d, smax, time, vis)
+        if vis == 0.0:
             return 0.0
-        st = (0.0, 0.0)
-        if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:
-            st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
-        a = opacity(S, mat, st)
-        if a >= 1.0:
-            return 0.0
-        vis *= 1.0 - a
-        th = float(tr.f[TFAR])
-        tn = th + 1e-5 * max(th, 1e-3)
-        tr.counts[RAYS_SHADOW] += 1
-        record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, tn, smax, time)
     return 0.0
 
 

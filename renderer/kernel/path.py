@@ -45,25 +45,24 @@ from .bsdf import BLACK, course_bsdf, evaluate_seen, is_delta, preview_bsdf, sam
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
-                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS, F_TEXTURES)
+                       F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
 from .integrator import (BAD_SAMPLES, N_COUNTERS, PASS_THROUGH_MAX, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW,
-                         RAYS_SHADOW_PACKET, _enqueue_shadow, _flush_shadows, _shading_point)
+                         RAYS_SHADOW_PACKET, _enqueue_shadow, _flush_shadows, _shading_point, cross_surface)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
 from .lights import shaped
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, opacity, preview_params, scalar
+from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params, scalar
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
-from .shapes import hit_gprim, surface
 from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_ROUGH,
-                     MI_MODEL, MI_SCALAR_TEX, S_CC_ROUGH, S_CLEARCOAT, S_OPACITY)
+                     S_CC_ROUGH, S_CLEARCOAT)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
-                    hit_of, intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
+                    intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
                     occluded1_surfaces, slot)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
@@ -203,19 +202,9 @@ def shadow_transmittance(S, L, tr, o, d, smax, time):
         if not intersect1_surfaces(tr.scene, tr.f, tr.u, o, d, tn, smax, time):
             return vis
         placed_hit(L, tr.u)
-        hit = hit_of(tr.f, tr.u)
-        mat = hit_gprim(S, hit)[2]
-        st = (0.0, 0.0)
-        if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:      # (its texture at the hit)
-            st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
-        a = opacity(S, mat, st)
-        if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE or a >= 1.0:
+        vis, tn = cross_surface(S, tr, o, d, smax, time, vis)
+        if vis == 0.0:
             return 0.0
-        vis *= 1.0 - a
-        th = float(tr.f[TFAR])
-        tn = th + 1e-5 * max(th, 1e-3)
-        tr.counts[RAYS_SHADOW] += 1
-        record_if(tr.rec, tr.tile, RAYS_SHADOW, o, d, tn, smax, time)
     return 0.0
 
 

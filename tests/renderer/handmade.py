@@ -86,3 +86,16 @@ def exr_file(path, pixels) -> str:
     out.write_image(pixels)
     out.close()
     return str(path)
+
+
+def estimator_means(desc, nee_spp=128, bsdf_spp=1024, mis_spp=128, seeds=2):
+    """(light sampling, BSDF sampling, MIS) estimates of the image mean of `desc`: path, direct light only (max depth
+    1), independent samples, the mean of `seeds` seeds each; they must agree when each has converged."""
+    from rtc.renderer.host.render import Renderer
+    from rtc.renderer.options import RenderOptions
+    with Renderer(desc, threads=2) as r:
+        def mean(strategy, spp):
+            return np.mean([r.render(RenderOptions(spp=spp, seed=s, integrator='path', max_depth=1, strategy=strategy,
+                                                   sampler='independent')).image.astype(np.float64)
+                            for s in range(seeds)])
+        return mean('nee', nee_spp), mean('bsdf', bsdf_spp), mean('mis', mis_spp)

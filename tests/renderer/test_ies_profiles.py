@@ -12,11 +12,10 @@ import pytest
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
 
 from rtc.renderer import description as D
-from rtc.renderer.host.render import Renderer
-from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.ies import IesError, mean_intensity, parse_ies
 from rtc.renderer.usd.stage import read_stage
-from tests.renderer.test_light_shaping import H, W, _down, _floor, _render
+from tests.renderer.handmade import estimator_means
+from tests.renderer.test_light_shaping import H, W, _down, _floor, _render, tree_leaves_out_above
 
 
 def ies_text(vertical, horizontal, candela, multiplier=1.0, tilt='NONE', kind=1):
@@ -110,13 +109,8 @@ def test_normalize_divides_by_the_mean_hdembree_computes():
 
 def test_light_sampling_and_bsdf_sampling_of_a_profiled_sphere_light_agree():
     prof = profile(np.arange(0, 181, 15), np.arange(0, 361, 30), bilinear)
-    desc = _floor(D.Light(path='/lamp', type=D.SPHERE, matrix=_down((0.3, 1.2, -0.2)), radiance=(0.2,) * 3,
-                          radius=0.35, ies=prof))
-    with Renderer(desc, threads=2) as r:
-        def mean(strategy, spp):
-            return np.mean([r.render(RenderOptions(spp=spp, seed=s, integrator='path', max_depth=1, strategy=strategy,
-                                                   sampler='independent')).image.astype(np.float64) for s in range(2)])
-        nee, bsdf, mis = mean('nee', 128), mean('bsdf', 1024), mean('mis', 128)
+    nee, bsdf, mis = estimator_means(_floor(D.Light(path='/lamp', type=D.SPHERE, matrix=_down((0.3, 1.2, -0.2)),
+                                                    radiance=(0.2,) * 3, radius=0.35, ies=prof)))
     assert mis > 1e-3
     assert nee == pytest.approx(mis, rel=0.01) and bsdf == pytest.approx(mis, rel=0.015), (nee, bsdf, mis)
 
@@ -225,19 +219,4 @@ def test_the_light_trees_cone_of_a_profile_holds_all_it_emits(scale):
 
 
 def test_the_light_tree_leaves_out_a_downlight_above_it():
-    from rtc.renderer.host.build import build
-    from rtc.renderer.host.light_selection import path_lights
-    from rtc.renderer.kernel.light_tree import choose_lights, light_pmf
-    prof = profile([0, 30, 60], [0], lambda t, p: 100.0 + 0.0 * t * p)
-    down = _light(ies=prof)
-    lamp = D.Light(path='/lamp2', type=D.POINT, matrix=_down((2.0, 1.0, 0.0)), radiance=(1.0,) * 3)
-    desc = _floor(down)
-    desc.lights = [down, lamp]
-    built = build(desc)
-    try:
-        L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
-        above, below = np.array([0.0, H + 1.0, 0.0]) - built.origin, np.array([0.3, 0.0, 0.2]) - built.origin
-        assert light_pmf(L, above, (0.0, -1.0, 0.0), 0) == 0.0 and light_pmf(L, below, (0.0, 1.0, 0.0), 0) > 0.0
-        assert all(choose_lights(L, above, (0.0, -1.0, 0.0), u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50))
-    finally:
-        built.close()
+    assert tree_leaves_out_above(_light(ies=profile([0, 30, 60], [0], lambda t, p: 100.0 + 0.0 * t * p)))

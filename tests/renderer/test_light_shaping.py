@@ -12,7 +12,7 @@ from rtc.renderer import description as D
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage
-from tests.renderer.handmade import ortho_down, quad, scene
+from tests.renderer.handmade import estimator_means, ortho_down, quad, scene
 
 H = 2.0                       # the light's height over the floor
 W = 48                        # image pixels across the 6 x 6 film
@@ -88,12 +88,7 @@ def _sphere_spot():
 
 
 def test_light_sampling_and_bsdf_sampling_of_a_shaped_sphere_light_agree():
-    desc = _floor(_sphere_spot())
-    with Renderer(desc, threads=2) as r:
-        def mean(strategy, spp):
-            return np.mean([r.render(RenderOptions(spp=spp, seed=s, integrator='path', max_depth=1, strategy=strategy,
-                                                   sampler='independent')).image.astype(np.float64) for s in range(2)])
-        nee, bsdf, mis = mean('nee', 128), mean('bsdf', 1024), mean('mis', 128)
+    nee, bsdf, mis = estimator_means(_floor(_sphere_spot()))
     assert mis > 1e-3
     assert nee == pytest.approx(mis, rel=0.01) and bsdf == pytest.approx(mis, rel=0.015), (nee, bsdf, mis)
 
@@ -129,27 +124,32 @@ def test_the_reader_reads_the_cone_and_focus_and_names_what_it_cannot_use():
     assert l.shaping is None and '/L: ShapingAPI on a DistantLight (one direction) is not applied' in warnings
 
 
-def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
-    """The tree bounds a spotlight by its cone about -Z (`host/light_tree.light_bounds`): above the light, more than
-    theta_o + pi/2 off its axis, it is never chosen; below it, it is."""
+def tree_leaves_out_above(light):
+    """Whether the light tree, of `light` (a downward light at height H over the origin) and a dim lamp beside it,
+    never chooses `light` for a point above it facing down, and can for a point on the floor below it."""
     from rtc.renderer.host.build import build
     from rtc.renderer.host.light_selection import path_lights
     from rtc.renderer.kernel.light_tree import choose_lights, light_pmf
-    spot = D.Light(path='/spot', type=D.POINT, matrix=_down((0.0, H, 0.0)), radiance=(8.0,) * 3,
-                   shaping=(30.0, 0.2, 0.0, (0.0, 0.0, 0.0)))
     lamp = D.Light(path='/lamp', type=D.POINT, matrix=_down((2.0, 1.0, 0.0)), radiance=(1.0,) * 3)
-    desc = _floor(spot)
-    desc.lights = [spot, lamp]
+    desc = _floor(light)
+    desc.lights = [light, lamp]
     built = build(desc)
     try:
         L, _ = path_lights(desc, built.data.li_f, built.top.bounds(), len(built.top.groups))
         above, below = np.array([0.0, H + 1.0, 0.0]) - built.origin, np.array([0.3, 0.0, 0.2]) - built.origin
-        up = (0.0, 1.0, 0.0)
-        assert light_pmf(L, above, (0.0, -1.0, 0.0), 0) == 0.0 and light_pmf(L, above, (0.0, -1.0, 0.0), 1) == 1.0
-        assert light_pmf(L, below, up, 0) > 0.0          # (1 where it outshines the lamp: a split)
-        assert all(choose_lights(L, above, (0.0, -1.0, 0.0), u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50))
+        down = (0.0, -1.0, 0.0)
+        return (light_pmf(L, above, down, 0) == 0.0 and light_pmf(L, above, down, 1) == 1.0
+                and light_pmf(L, below, (0.0, 1.0, 0.0), 0) > 0.0          # (1 where it outshines the lamp: a split)
+                and all(choose_lights(L, above, down, u)[0][0] == 1 for u in np.linspace(0.0, 0.999, 50)))
     finally:
         built.close()
+
+
+def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
+    """The tree bounds a spotlight by its cone about -Z (`host/light_tree.light_bounds`): above the light, more than
+    theta_o + pi/2 off its axis, it is never chosen; below it, it is."""
+    assert tree_leaves_out_above(D.Light(path='/spot', type=D.POINT, matrix=_down((0.0, H, 0.0)), radiance=(8.0,) * 3,
+                                         shaping=(30.0, 0.2, 0.0, (0.0, 0.0, 0.0))))
 
 
 def test_a_lights_per_lobe_gain_is_named_not_applied():
