@@ -104,3 +104,9 @@ def test_info_on_a_compiled_scene(tmp_path):
     placed = [int(line.rsplit(' ', 1)[1][:-1]) for line in info(usd) if line.endswith('x') and
               f'1 meshes ({faces} triangles)' in line]
     assert sorted(placed) == [1, 2, 2, 2]
+
+
+def test_info_counts_the_shaped_lights():
+    """scenes/lights.usda: its spotlight and its sconce are shaped (ShapingAPI), the sconce by an IES profile."""
+    assert_lines(info(REPO / 'scenes' / 'lights.usda'),
+                 'lights: 4 (cylinder 1, rect 1, sphere 2); shaped 2 (1 by an IES profile)', 'warnings: 0')
