@@ -16,7 +16,8 @@ from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
                              LF_COURSE, LF_IES, LF_SHAPED, MF_CLEARCOAT, MF_EMIT, MF_OPACITY, MF_OPACITY_CUT,
-                             MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX, MI_SPECULAR_TEX, MI_VERTEX_COLOR,
+                             MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX, MI_SPECULAR_TEX,
+                             MI_VERTEX_COLOR,
                              S_OPACITY)
 
 
