@@ -97,8 +97,8 @@ class Features:
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
                lux_lights=True, dome_texture=True, shaping=True, ies=True, light_shapes=True, surface_lights=True,
-               textures=True, normal_maps=True, opacity=True, emission=True, clearcoat=True, spheres=True, curves=True, normals=True,
-               uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
+               textures=True, normal_maps=True, opacity=True, emission=True, clearcoat=True, spheres=True, curves=True,
+               normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())
