@@ -235,7 +235,8 @@ class Light:
     angle: float = 0.0                      # DISTANT: angular diameter in degrees
     length: float = 0.0                     # CYLINDER: along local X (centred on the origin; emits from its
                                             # side, outwards, not from its caps)
-    texture: int = -1                       # DOME: lat-long texture, -1 = constant colour
+    texture: int = -1                       # DOME: lat-long texture; RECT: its image (top-left corner at local
+                                            # (+X, +Y)); -1 = constant colour
     course_intensity: Optional[tuple] = None  # a course light (RtcCourseLightAPI): the course's intensity I
     # UsdLux.ShapingAPI: (cone angle in degrees off the -Z axis, cone softness, focus, focus tint rgb); None: unshaped
     shaping: Optional[tuple] = None

@@ -211,7 +211,7 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
             area = 4 * np.pi * radius * radius
         elif l.type == D.CYLINDER:                   # its side (Light.matrix is rigid: world sizes)
             area = 2 * np.pi * l.radius * l.length
-        elif l.type == D.DOME:
+        if l.type in (D.DOME, D.RECT):
             li_tex[k] = l.texture
         LIGHT_F.write(li_f[k], M=m3.ravel(), RAD=l.radiance, RADIUS=radius, W=l.width, H=l.height,
                       COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area, LENGTH=l.length)

@@ -53,12 +53,14 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
     rows = np.flatnonzero(data.li_type >= 0)
     course = data.li_f[rows, LF_COURSE] != 0.0
     domes = rows[kinds == D.DOME]
+    rects = rows[kinds == D.RECT]
     mesh_flags = data.gp_flags[data.gp_kind == GP_MESH]          # (a sphere's flags are not read)
     return Features(
         samplers=1 << SAMPLER_IDS[options.sampler], filters=1 << FILTER_IDS[options.filter],
         models=bits(np.unique(mi[:, MI_MODEL])), lights=bits(np.unique(kinds)),
         course_lights=bool(not path and np.any(course)), lux_lights=bool(path or np.any(~course)),
-        dome_texture=bool(np.any(data.li_tex[domes] >= 0)), shaping=bool(np.any(data.li_f[rows, LF_SHAPED] != 0.0)),
+        dome_texture=bool(np.any(data.li_tex[domes] >= 0)), rect_texture=bool(np.any(data.li_tex[rects] >= 0)),
+        shaping=bool(np.any(data.li_f[rows, LF_SHAPED] != 0.0)),
         ies=bool(np.any(data.li_f[rows, LF_IES] >= 0.0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),

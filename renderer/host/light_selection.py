@@ -31,27 +31,27 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from ..kernel.trace import MASK_FACING, MASK_LIGHT_SHAPES
-from .dome_sampling import dome_tables
+from .light_images import image_tables
 from .features import see_through
 from .light_tree import light_tree
 from .surface_lights import surface_lights, surface_lights_none
 
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
-                                       'infinite', 'has_dome', 'dome_i', 'dome_cdf', 'light_group', 'geom_off',
+                                       'infinite', 'has_dome', 'image_i', 'image_cdf', 'light_group', 'geom_off',
                                        'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
                                        'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through',
                                        'shadow_packets'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
-def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_mean: dict) -> np.ndarray:
+def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, image_mean: dict) -> np.ndarray:
     out = np.zeros(max(len(desc.lights), 1))
     for k, l in enumerate(desc.lights):
         y = float(np.dot(_LUM, np.abs(l.radiance)))
         if l.type == D.POINT:
             out[k] = y
         elif l.type in (D.RECT, D.DISK):
-            out[k] = li_f[k, LF_AREA] * y
+            out[k] = li_f[k, LF_AREA] * y * image_mean.get(k, 1.0)
         elif l.type == D.CYLINDER:
             out[k] = 2 * li_f[k, LF_RADIUS] * li_f[k, LF_LENGTH] * y
         elif l.type == D.SPHERE:
@@ -59,7 +59,7 @@ def light_phi(desc: D.SceneDescription, li_f: np.ndarray, radius: float, dome_me
         elif l.type == D.DISTANT:
             out[k] = np.pi * radius ** 2 * y
         elif l.type == D.DOME:
-            out[k] = 4 * np.pi ** 2 * radius ** 2 * y * dome_mean.get(k, 1.0)
+            out[k] = 4 * np.pi ** 2 * radius ** 2 * y * image_mean.get(k, 1.0)
         if l.ies is not None:                        # (its profile's peak: the largest intensity still)
             out[k] *= l.ies_gain * float(l.ies.candela.max())
     return np.where(np.isfinite(out) & (out > 0), out, 0.0)
@@ -172,10 +172,10 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     lo, hi = np.asarray(bounds, np.float64)
     ext = hi - lo
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
-    dome_i, dome_cdf, dome_mean = dome_tables(desc)
+    image_i, image_cdf, image_mean = image_tables(desc)
     surf = surface_lights(data, len(desc.lights), _warner(desc)) if data is not None else None
     tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
-        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), dome_mean), surf.bounds if surf else ())
+        desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), image_mean), surf.bounds if surf else ())
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
     infinite = [k for k, l in enumerate(desc.lights)
@@ -184,7 +184,7 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     return PathLights(tree_f=tree_f, tree_i=tree_i, trail=trail, depth=depth, unbounded=unbounded, n_bounded=n_bounded,
                       shapes=np.array(shapes, np.int64),
                       infinite=np.array(infinite, np.int64), has_dome=int(D.DOME in types),
-                      dome_i=dome_i, dome_cdf=dome_cdf, light_group=light_group if geometry else -1,
+                      image_i=image_i, image_cdf=image_cdf, light_group=light_group if geometry else -1,
                       geom_off=geom_off, prim_light=prim_light, facing=facing, **_surface_fields(desc, surf),
                       direct_base=-1, direct=np.zeros((0, 3), np.int64),
                       see_through=see_through(data) if data is not None else any(

@@ -1,5 +1,5 @@
 """A textured dome light's directions drawn by importance: the piecewise-constant distribution over its
-lat-long image that `host/dome_sampling.py` tabulates (texels weighted by luminance x sin(theta); one
+lat-long image that `host/light_images.py` tabulates (texels weighted by luminance x sin(theta); one
 marginal CDF over rows, one conditional CDF per row), its inverse (`sample_dome_texture`) and its density
 per unit solid angle (`dome_pdf`, which also gives an untextured dome's cosine-weighted pdf), for
 `light_sampling.sample_ld` and for the MIS weight of a ray that escapes (`light_sampling.escaped_emission`).
@@ -29,7 +29,7 @@ def _search(cdf, lo, n, u):
 
 
 @nb.njit(**_JIT)
-def _invert(cdf, lo, n, u):
+def invert(cdf, lo, n, u):
     """(i, where u lies in bin i as a fraction of it, the bin's probability) of the piecewise-constant
     distribution of CDF cdf[lo .. lo + n] at u; probability 0: an empty bin (no fraction)."""
     i = _search(cdf, lo, n, u)
@@ -53,11 +53,11 @@ def _dome_frame(S, k):
 def sample_dome_texture(S, L, k, u1, u2):
     """(world direction, solid-angle pdf) from the piecewise-constant distribution of the dome's
     lat-long image (texels weighted by luminance x sin(theta)); rows = latitude, top row = +Y."""
-    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
-    y, fy, pm = _invert(L.dome_cdf, moff, h, u2)
+    moff, coff, w, h = L.image_i[k, 0], L.image_i[k, 1], L.image_i[k, 2], L.image_i[k, 3]
+    y, fy, pm = invert(L.image_cdf, moff, h, u2)
     if not pm > 0.0:
         return (0.0, 0.0, 1.0), 0.0
-    x, fx, pc = _invert(L.dome_cdf, coff + y * (w + 1), w, u1)
+    x, fx, pc = invert(L.image_cdf, coff + y * (w + 1), w, u1)
     if not pc > 0.0:
         return (0.0, 0.0, 1.0), 0.0
     s = (x + fx) / w
@@ -78,10 +78,10 @@ def sample_dome_texture(S, L, k, u1, u2):
 def dome_pdf(S, L, k, wd, n):
     """Solid-angle pdf with which `sample_ld` draws world direction wd for dome k (n: shading normal
     of the vertex, for an untextured dome)."""
-    if not F_DOME_TEXTURE or L.dome_i[k, 0] < 0:
+    if not F_DOME_TEXTURE or L.image_i[k, 0] < 0:
         c = dot(wd, n)
         return c / math.pi if c > 0.0 else 0.0
-    moff, coff, w, h = L.dome_i[k, 0], L.dome_i[k, 1], L.dome_i[k, 2], L.dome_i[k, 3]
+    moff, coff, w, h = L.image_i[k, 0], L.image_i[k, 1], L.image_i[k, 2], L.image_i[k, 3]
     ax, ay, az = _dome_frame(S, k)
     loc = (dot(wd, ax), dot(wd, ay), dot(wd, az))
     lat = math.asin(max(-1.0, min(1.0, loc[1])))
@@ -92,7 +92,7 @@ def dome_pdf(S, L, k, wd, n):
     v = 0.5 - lat / math.pi
     x = min(max(int(s * w), 0), w - 1)
     y = min(max(int(v * h), 0), h - 1)
-    pm = L.dome_cdf[moff + y + 1] - L.dome_cdf[moff + y]
+    pm = L.image_cdf[moff + y + 1] - L.image_cdf[moff + y]
     row = coff + y * (w + 1)
-    pc = L.dome_cdf[row + x + 1] - L.dome_cdf[row + x]
+    pc = L.image_cdf[row + x + 1] - L.image_cdf[row + x]
     return pm * pc * w * h / (2.0 * math.pi * math.pi * cl)

@@ -55,6 +55,7 @@ class Features:
     course_lights: bool      # a light the cook integrator shades with the course's semantics (LF_COURSE)
     lux_lights: bool         # a light the cook integrator shades with UsdLux radiometry (every light in path)
     dome_texture: bool       # a dome light with a lat-long image
+    rect_texture: bool       # a rect light with an image (`lights.rect_radiance`, `rect_sampling.py`)
     shaping: bool            # a light shaped by UsdLux.ShapingAPI (a spotlight's cone, focus: `lights.shaped`)
     ies: bool                # a light shaped by an IES profile (`ies_profiles.py`)
     light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
@@ -96,9 +97,10 @@ class Features:
 
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
-               lux_lights=True, dome_texture=True, shaping=True, ies=True, light_shapes=True, surface_lights=True,
-               textures=True, normal_maps=True, opacity=True, emission=True, clearcoat=True, spheres=True, curves=True,
-               normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True, time=True)
+               lux_lights=True, dome_texture=True, rect_texture=True, shaping=True, ies=True, light_shapes=True,
+               surface_lights=True, textures=True, normal_maps=True, opacity=True, emission=True, clearcoat=True,
+               spheres=True, curves=True, normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True,
+               time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

@@ -32,13 +32,15 @@ import math
 import numba as nb
 
 from .. import description as D
-from .features import B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS
+from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_DOME_TEXTURE, F_LIGHTS,
+                       F_RECT_TEXTURE)
 from .dome_sampling import dome_pdf, sample_dome_texture
 from .light_tree import light_pmf
-from .lights import cylinder_point, dome_radiance, shaped
+from .lights import cylinder_point, dome_radiance, rect_radiance, shaped
 from .jit import SHADING_INLINE_JIT as _JIT
 from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, lobe_area_pdf, lobe_pdf, lobe_window,
-                            round_window)
+                            rect_coords, round_window)
+from .rect_sampling import image_density, image_sampled, sample_image_point
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
 from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
@@ -118,6 +120,8 @@ def sample_ld(S, L, k, p, n, u1, u2):
             sr = near_rect(p, c, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H])
             if sr[0] > 0.0:
                 return _spherical_rect_ld(p, sr, (ex, ey, nrm), (lf[k, LF_W], lf[k, LF_H]), (u1, u2), Lr)
+            if image_sampled(L, k):                  # (far: by its image)
+                return _image_ld(L, k, p, (c, ex, ey, nrm), (lf[k, LF_W], lf[k, LF_H], lf[k, LF_AREA]), (u1, u2), Lr)
             a = (u1 - 0.5) * lf[k, LF_W]
             b = (u2 - 0.5) * lf[k, LF_H]
         else:
@@ -152,7 +156,7 @@ def sample_ld(S, L, k, p, n, u1, u2):
         omega = 2.0 * math.pi * (1.0 - cos_max)
         return _cone(w, 1.0 - cos_max, u1, u2), INF, (Lr[0] / omega, Lr[1] / omega, Lr[2] / omega), 1.0 / omega, False
     if F_LIGHTS & B_DOME and (F_LIGHTS == B_DOME or t == D.DOME):
-        if F_DOME_TEXTURE and L.dome_i[k, 0] >= 0:
+        if F_DOME_TEXTURE and L.image_i[k, 0] >= 0:
             wi, pdf = sample_dome_texture(S, L, k, u1, u2)
         else:
             r = math.sqrt(u1)
@@ -197,7 +201,7 @@ def sample_ld_lobe(S, L, k, vtx, u):
         return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
     win, plane, lim = light_window(S, k, vtx.p, vtx.lobe)
     if not win[0]:
-        return sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1])
+        return _imaged(S, k, vtx.p, sample_ld(S, L, k, vtx.p, vtx.ns, u[0], u[1]))
     c, ex, ey, nrm = plane
     a = cauchy_sample(win[1], u[0])
     b = cauchy_sample(win[2], u[1])
@@ -210,7 +214,42 @@ def sample_ld_lobe(S, L, k, vtx, u):
         return NONE
     lf = S.li_f
     Lr = (lf[k, LF_RAD], lf[k, LF_RAD + 1], lf[k, LF_RAD + 2])
+    if F_RECT_TEXTURE and S.li_type[k] == D.RECT:
+        Lr = rect_radiance(S, k, a, b, Lr)
     return wi, dist, Lr, lobe_area_pdf(win, a, b) * d2 / cos_l, False
+
+
+@nb.njit(**_JIT)
+def _image_ld(L, k, p, plane, size, u, Lr):
+    """`sample_ld` of textured rect light k (plane (c, ex, ey, nrm), size (w, h, area)) seen from p: its point
+    drawn by its image (`rect_sampling`), pdf d^2 / cos_l times its density per unit area."""
+    a, b, dens = sample_image_point(L, k, size, u[0], u[1])
+    if not dens > 0.0:
+        return NONE
+    c, ex, ey, nrm = plane
+    q = (c[0] + a * ex[0] + b * ey[0], c[1] + a * ex[1] + b * ey[1], c[2] + a * ex[2] + b * ey[2])
+    return area_ld(p, q, (-nrm[0], -nrm[1], -nrm[2]), size[2] / dens, Lr)
+
+
+@nb.njit(**_JIT)
+def _imaged_at(S, k, q, Le):
+    """Emission Le of light k at its point q, times the light's image there (a textured rect:
+    `lights.rect_radiance`); Le itself for every other light."""
+    if not (F_RECT_TEXTURE and S.li_type[k] == D.RECT and S.li_tex[k] >= 0):
+        return Le
+    c, ex, ey, nrm = _plane(S.li_f, k)
+    a, b = rect_coords(q, c, ex, ey, nrm)
+    return rect_radiance(S, k, a, b, Le)
+
+
+@nb.njit(**_JIT)
+def _imaged(S, k, p, sample):
+    """A light sample (wi, dist, Le, pdf, delta) of light k seen from p, its emission times the light's image
+    where it meets the light (`_imaged_at`)."""
+    wi, dist, Le, pdf, delta = sample
+    if not (F_RECT_TEXTURE and pdf > 0.0):
+        return sample
+    return wi, dist, _imaged_at(S, k, (p[0] + dist * wi[0], p[1] + dist * wi[1], p[2] + dist * wi[2]), Le), pdf, delta
 
 
 @nb.njit(**_JIT)
@@ -343,7 +382,7 @@ def _power(a, b):
 
 
 @nb.njit(**_JIT)
-def hit_shape(S, k, o, d, tmax, p0):
+def hit_shape(S, L, k, o, d, tmax, p0):
     """(t, pdf) where the ray o + t d, t in (0, tmax), meets the emitting side of light shape k,
     t = -1 if it does not; pdf: the solid-angle pdf of `sample_ld` for that point seen from p0 (the
     path vertex the ray left, which o follows on the same line when the ray passed through
@@ -387,13 +426,16 @@ def hit_shape(S, k, o, d, tmax, p0):
             return -1.0, 0.0
     elif a * a + b * b > lf[k, LF_RADIUS] * lf[k, LF_RADIUS]:
         return -1.0, 0.0
+    area = lf[k, LF_AREA]
     if t == D.RECT:
         S = near_rect(p0, c, ex, ey, nrm, lf[k, LF_W], lf[k, LF_H])[0]
         if S > 0.0:
             return th, 1.0 / S
+        if image_sampled(L, k):
+            area /= image_density(L, k, (lf[k, LF_W], lf[k, LF_H]), a, b)
     v = sub(q, p0)
     d2 = dot(v, v)
-    return th, d2 / (den * lf[k, LF_AREA])
+    return th, d2 / (den * area)
 
 
 @nb.njit(**_JIT)
@@ -471,15 +513,17 @@ def shape_emission(S, L, k, ray, te, prev):
     p0, n0, pb, mode, lobe = prev
     if mode == 2:
         return ZERO
-    t, pl = hit_shape(S, k, o, d, INF, p0)
+    t, pl = hit_shape(S, L, k, o, d, INF, p0)
     if t < 0.0 or abs(t - te) > hit_tolerance(o, te):
         return ZERO
+    q = (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2])
     if mode == 0 and lobe[4] > 0.0:
         win, plane, lim = light_window(S, k, p0, lobe)
         if win[0]:
-            pl = lobe_pdf(win, plane, lim, p0, (o[0] + t * d[0], o[1] + t * d[1], o[2] + t * d[2]))
+            pl = lobe_pdf(win, plane, lim, p0, q)
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
-    return shaped(S, k, d, (w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2]))
+    Le = (w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2])
+    return shaped(S, k, d, _imaged_at(S, k, q, Le))
 
 
 @nb.njit(**_JIT)

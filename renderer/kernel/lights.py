@@ -26,12 +26,12 @@ import numba as nb
 
 from .. import description as D
 from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE,
-                       F_IES, F_LIGHTS, F_LUX_LIGHTS, F_SHAPING)
+                       F_IES, F_LIGHTS, F_LUX_LIGHTS, F_RECT_TEXTURE, F_SHAPING)
 from .ies_profiles import ies_weight
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
 from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_H, LF_IES, LF_LENGTH, LF_M,
                      LF_RAD, LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
-from .textures import sample_latlong
+from .textures import sample_latlong, sample_texture
 from .vecmath import dot, normalize, onb, sub, to_world
 
 INF = math.inf
@@ -89,7 +89,7 @@ def sample_light(S, k, p, n, u1, u2):
     if F_LIGHTS & B_POINT and (F_LIGHTS == B_POINT or t == D.POINT):
         return _sample_point(lf, k, p, L)
     if F_LIGHTS & B_PLANAR and (t == D.RECT or t == D.DISK):
-        return _sample_area(lf, k, t, p, u1, u2, L)
+        return _sample_area(S, k, t, p, u1, u2, L)
     if F_LIGHTS & B_SPHERE and (F_LIGHTS == B_SPHERE or t == D.SPHERE):
         return _sample_sphere(lf, k, p, u1, u2, L)
     if F_LIGHTS & B_CYLINDER and (F_LIGHTS == B_CYLINDER or t == D.CYLINDER):
@@ -114,15 +114,30 @@ def _sample_point(lf, k, p, L):
     return (v[0] * r, v[1] * r, v[2] * r), d, (L[0] * inv, L[1] * inv, L[2] * inv)
 
 
-@nb.njit(**INLINE_JIT)
-def _sample_area(lf, k, t, p, u1, u2, L):
+@nb.njit(**SHADING_INLINE_JIT)
+def rect_radiance(S, k, a, b, Le):
+    """Radiance Le of rect light k at its point c + a ex + b ey, times its image there if it has one: UsdLux
+    puts the image's top-left corner at local (+X, +Y) and its bottom-right at (-X, -Y) (so that it reads as
+    drawn seen from the side the light shines on), i.e. texture coordinates (1/2 - a / w, 1/2 + b / h)."""
+    tex = S.li_tex[k]
+    if not (F_RECT_TEXTURE and tex >= 0):
+        return Le
+    lf = S.li_f
+    c = sample_texture(S, tex, 0.5 - a / lf[k, LF_W], 0.5 + b / lf[k, LF_H])
+    return Le[0] * c[0], Le[1] * c[1], Le[2] * c[2]
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _sample_area(S, k, t, p, u1, u2, L):
     """A point uniformly on a rect (t == D.RECT) or disk light of radiance L, as seen from p."""
+    lf = S.li_f
     pos = _col(lf, k, 3)
     ex = _col(lf, k, 0)
     ey = _col(lf, k, 1)
     if t == D.RECT:
         a = (u1 - 0.5) * lf[k, LF_W]
         b = (u2 - 0.5) * lf[k, LF_H]
+        L = rect_radiance(S, k, a, b, L)
     else:
         r = lf[k, LF_RADIUS] * math.sqrt(u1)
         phi = 2.0 * math.pi * u2

@@ -15,6 +15,11 @@
   L * sizeFactor (pi sin^2(angle/2) per the UsdLux `normalize` documentation, 1 for angle 0);
 * DomeLight: L (multiplies the lat-long texture if any).
 
+A RectLight's ``inputs:texture:file`` multiplies L over the rect.  The schema puts "a texture file's min
+coordinates at (+X, +Y) and max coordinates at (-X, -Y)": the image's top-left corner at local (+X, +Y) and
+its bottom-right at (-X, -Y), so that the image reads as drawn seen from the side the light shines on (as a
+screen does).  Pixar's hdEmbree draws it mirrored left to right (its top-left at (-X, +Y)).
+
 `Light.matrix` is returned **rigid** (orthonormal, det +1; emission along its -Z): scale in the
 light's transform is folded into `radius` / `width` / `height` / `length`, which are world-space
 sizes (a CylinderLight's length scales with local X, its radius with the geometric mean of the Y and Z
@@ -58,7 +63,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
                load_texture: Callable, warn: Warn) -> Optional[Light]:
     """A Light for a UsdLux light prim, or None (with a warning) when it cannot be used.
 
-    `load_texture(asset_path, owner) -> index` loads a DomeLight's lat-long image."""
+    `load_texture(asset_path, owner, wrap_s, wrap_t) -> index` loads a DomeLight's lat-long image and a
+    RectLight's image."""
     path, kind = str(prim.GetPath()), prim.GetTypeName()
     bad = _nonfinite_input(prim, time)
     if bad is not None:                   # (an infinite width: its samples' directions NaN, which Embree must not see)
@@ -90,13 +96,17 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
         if asset is not None and asset.path:
             fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
             if fmt in ('automatic', 'latlong'):
-                texture = load_texture(asset, path)
+                texture = load_texture(asset, path, 'repeat', 'clamp')
             else:
                 warn(f'{path}: dome texture format "{fmt}" is not supported; constant colour')
         return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture)
 
     frame, scale = rigid_frame(to_world)
     light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
+    if light is not None and light.type == RECT:
+        asset = UsdLux.RectLight(prim).GetTextureFileAttr().Get(time)
+        if asset is not None and asset.path:          # (clamped at its edges: the image ends where the rect does)
+            light.texture = load_texture(asset, path, 'clamp', 'clamp')
     if light is not None:
         light.shaping = _shaping(prim, path, light.type, time, warn)
         _ies(light, prim, time, warn)
@@ -132,8 +142,6 @@ def _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, t
     cross = float(np.linalg.norm(np.cross(to_world[:3, 0], to_world[:3, 1])))   # area scale in XY
     if kind == 'RectLight':
         light = UsdLux.RectLight(prim)
-        if light.GetTextureFileAttr().Get(time):
-            warn(f'{path}: RectLight texture is not supported; constant colour')
         w, h = float(light.GetWidthAttr().Get(time)), float(light.GetHeightAttr().Get(time))
         area = w * h * cross
         if area <= 0:

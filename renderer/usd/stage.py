@@ -368,7 +368,7 @@ class _Reader:
             for prim, rel in zip(node.lights, node.light_xf):
                 for w in world:
                     try:
-                        light = read_light(prim, w @ rel[frame], self.tc, up, self._dome_texture, self.warn)
+                        light = read_light(prim, w @ rel[frame], self.tc, up, self._light_texture, self.warn)
                     except (Tf.ErrorException, TypeError, ValueError):
                         self.skipped.append(f'{prim.GetPath()}: unreadable light ({mistyped_attributes(prim)})')
                         break
@@ -378,8 +378,8 @@ class _Reader:
                             self.backgrounds.add(light.path)
         return lights
 
-    def _dome_texture(self, asset, owner: str) -> int:
-        return self.materials.texture(asset, 'auto', 'repeat', 'clamp', (1.0,) * 4, (0.0,) * 4, owner, light=True)
+    def _light_texture(self, asset, owner: str, wrap_s: str, wrap_t: str) -> int:
+        return self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True)
 
 
 def _is_course_background(prim: Usd.Prim, time: Usd.TimeCode) -> bool:

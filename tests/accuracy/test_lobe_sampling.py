@@ -186,7 +186,7 @@ def test_a_bsdf_ray_meeting_the_light_is_weighed_by_the_light_samples_pdf(lit, c
         wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, (float(u[0]), float(u[1])))
         if not pdf > 0.0:
             continue
-        t, pu = hit_shape(S, 0, vtx.p, wi, math.inf, vtx.p)
+        t, pu = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
         assert t == pytest.approx(dist, rel=1e-9)
         pb = pmf * pdf
         e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pb, 0, lobe))

@@ -125,7 +125,17 @@ def test_features_are_read_from_the_scene_tables(monkeypatch):
     assert f.textures and f.opacity and f.emission and f.clearcoat and f.spheres and f.dome_texture
     assert f.light_shapes and f.surface_lights and f.lux_lights and not f.course_lights
     assert not (f.shaping or f.normal_maps or f.normals or f.uvs or f.xf_motion or f.ortho or f.lens or f.time)
+    assert not f.rect_texture                          # (the dome has an image, the rect has none)
     assert 'cmj tent previewSurface light:rect light:dome' in f.describe()
+
+
+def test_a_rect_light_image_is_a_feature_of_its_own(monkeypatch):
+    desc = _rich_path_scene()
+    desc.lights[0].texture = 0
+    with Renderer(desc) as r:
+        monkeypatch.setenv('RTC_KERNELS', 'specialized')
+        f = r.setup(resolve(RenderOptions(spp=1, integrator='path'), r.desc.settings)).features
+    assert f.rect_texture and f.dome_texture
 
 
 def _images(desc_or_path, opts: dict, monkeypatch) -> tuple:

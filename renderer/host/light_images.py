@@ -1,8 +1,9 @@
-"""Importance-sampling tables of textured dome lights: a piecewise-constant 2D distribution over the
-lat-long image, texels weighted by luminance x sin(theta) (the solid angle of a row), as one
-marginal CDF over rows and one conditional CDF per row (pbrt's Distribution2D; Pharr et al.,
-"Physically Based Rendering", 4th ed., 2023, sec. A.5), flattened into one float64 array.
-Sampled by `kernel/dome_sampling.sample_dome_texture`.
+"""Importance-sampling tables of lights' images: a piecewise-constant 2D distribution over each image,
+as one marginal CDF over rows and one conditional CDF per row (pbrt's Distribution2D; Pharr et al.,
+"Physically Based Rendering", 4th ed., 2023, sec. A.5), flattened into one float64 array.  A textured
+dome's lat-long image has its texels weighted by luminance x sin(theta) (the solid angle of a row; sampled
+by `kernel/dome_sampling.sample_dome_texture`), a textured rect light's image by luminance alone (every
+texel covers the same area of the rect; sampled by `kernel/rect_sampling.sample_image_point`).
 
 A texel's weight is the mean, over the texel, of what the kernels see: the bilinear interpolation of the
 image (`kernel/textures.sample_texture`), with the texture's wrap modes.  That is the image filtered by
@@ -45,22 +46,22 @@ def texel_means(y: np.ndarray, wrap_s: str, wrap_t: str) -> np.ndarray:
     return 0.125 * (p[:, :-2] + p[:, 2:]) + 0.75 * p[:, 1:-1]
 
 
-def dome_tables(desc: D.SceneDescription):
-    """(dome_i int64 (n_lights, 4) = (marginal offset, conditional offset, width, height) or -1,
-    dome_cdf float64, {light: mean luminance of its texture})."""
+def image_tables(desc: D.SceneDescription):
+    """(image_i int64 (n_lights, 4) = (marginal offset, conditional offset, width, height) or -1,
+    image_cdf float64, {light: mean luminance of its image}) of the textured dome and rect lights."""
     n = max(len(desc.lights), 1)
-    dome_i = np.full((n, 4), -1, np.int64)
+    image_i = np.full((n, 4), -1, np.int64)
     chunks, off, means = [], 0, {}
     for k, l in enumerate(desc.lights):
-        if l.type != D.DOME or l.texture < 0:
+        if l.type not in (D.DOME, D.RECT) or l.texture < 0:
             continue
         tex = desc.textures[l.texture]
         y = _luminance(tex)
         h, w = y.shape
         means[k] = float(y.mean())
-        y = texel_means(y, tex.wrap_s, tex.wrap_t)
-        lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
-        wgt = y * np.cos(lat)[:, None]
+        wgt = texel_means(y, tex.wrap_s, tex.wrap_t)
+        if l.type == D.DOME:
+            wgt = wgt * np.cos((0.5 - (np.arange(h) + 0.5) / h) * np.pi)[:, None]
         wgt = wgt + FLOOR * max(float(wgt.mean()), 1e-300)
         rows = wgt.sum(1)
         cond = np.zeros((h, w + 1))
@@ -69,7 +70,7 @@ def dome_tables(desc: D.SceneDescription):
         marg = np.zeros(h + 1)
         marg[1:] = np.cumsum(rows) / rows.sum()
         marg[-1] = 1.0
-        dome_i[k] = (off, off + h + 1, w, h)
+        image_i[k] = (off, off + h + 1, w, h)
         chunks += [marg, cond.ravel()]
         off += h + 1 + h * (w + 1)
-    return dome_i, (np.concatenate(chunks) if chunks else np.zeros(1)), means
+    return image_i, (np.concatenate(chunks) if chunks else np.zeros(1)), means

@@ -1,0 +1,223 @@
+"""A RectLight's image (`inputs:texture:file`): its texels multiply the emission over the rect, the image's top-left
+corner at the light's local (+X, +Y) as the UsdLux schema puts it, in both integrators; the path integrator draws a
+far rect's points by the image and weighs the rays that meet it by the same density.
+
+Independent references: a rect whose image is black on one half lights the scene as a rect of half the size over
+the other half does (pixel blocks, near and far, cook and path); a camera facing the light sees the image upright;
+light sampling alone, BSDF sampling alone and MIS agree for a rect with one hot spot; the light's power (the light
+tree's and the light choice's) is scaled by the image's mean."""
+import numpy as np
+import pytest
+from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux
+
+from rtc.renderer import description as D
+from rtc.renderer.host.light_images import image_tables
+from rtc.renderer.host.light_selection import light_phi
+from rtc.renderer.host.render import Renderer
+from rtc.renderer.options import RenderOptions
+from rtc.renderer.usd.stage import read_stage
+from tests.renderer.handmade import estimator_means, exr_file, look_at, ortho_down, quad, rect_light, scene
+
+N = 32                                         # image pixels across the 6 x 6 film
+
+
+def _half(n=64, lit='left'):
+    """A 8 x n image, white on its `lit` half (columns), black on the other."""
+    px = np.zeros((8, n, 3), np.float32)
+    if lit == 'left':
+        px[:, :n // 2] = 1.0
+    else:
+        px[:, n // 2:] = 1.0
+    return D.Texture(path='/half.exr', pixels=px, wrap_s='clamp', wrap_t='clamp')
+
+
+def _floor(light, textures=()):
+    mats = [D.Material('/floor', diffuse=(0.6, 0.6, 0.6), roughness=0.7)]
+    return scene([D.Container('/', meshes=[quad(12.0)])], mats, [light], ortho_down(width=6.0, y=5.0), width=N,
+                 height=N, textures=textures)
+
+
+def _imaged(light, texture):
+    light.texture = 0
+    return _floor(light, (texture,))
+
+
+def _render(desc, integrator, spp):
+    with Renderer(desc, threads=2) as r:
+        return r.render(RenderOptions(spp=spp, integrator=integrator, max_depth=1, sampler='sobol')).image.astype(
+            np.float64)
+
+
+def _blocks(img, b=4):
+    return img[..., 0].reshape(N // b, b, N // b, b).mean((1, 3))
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+@pytest.mark.parametrize('height', [0.5, 4.0])          # near (solid angle) and far (by the image) in path
+def test_a_half_black_image_lights_as_the_rect_of_its_lit_half(integrator, height):
+    """The image's left half (its top-left corner at local +X) is white: the light is the rect's +X half.  The
+    rect's local X is world +X here, so a mirrored image would light the other side (a factor of ~4 in the
+    blocks near the light)."""
+    full = _imaged(rect_light((0.0, height, 0.0), 2.0, 1.0, (5.0,) * 3), _half(lit='left'))
+    half = _floor(rect_light((0.5, height, 0.0), 1.0, 1.0, (5.0,) * 3))
+    a, b = _render(full, integrator, 1024), _render(half, integrator, 1024)
+    assert a.mean() == pytest.approx(b.mean(), rel=0.005)
+    ba, bb = _blocks(a), _blocks(b)                  # (4 x 4 pixel blocks, their errors against the brightest)
+    assert np.abs(ba - bb).max() < 0.015 * bb.max(), np.abs(ba - bb).max() / bb.max()
+    if height < 1.0:
+        assert bb[:, -2:].mean() > 3.0 * bb[:, :2].mean()           # (the reference is lopsided)
+
+
+def test_a_camera_facing_the_light_sees_its_image_upright():
+    """Four coloured quadrants; the camera looks at the emitting side with its up along the light's +Y: what it
+    shows is the image as drawn (top-left red, top-right green, bottom-left blue, bottom-right white)."""
+    px = np.zeros((16, 16, 3), np.float32)
+    px[:8, :8] = (1, 0, 0)
+    px[:8, 8:] = (0, 1, 0)
+    px[8:, :8] = (0, 0, 1)
+    px[8:, 8:] = (1, 1, 1)
+    m = np.eye(4)                                        # local +Z = world -Y: the light emits up (+Y)
+    m[:3, 0], m[:3, 1], m[:3, 2] = (1, 0, 0), (0, 0, 1), (0, -1, 0)
+    light = D.Light(path='/rect', type=D.RECT, matrix=m, radiance=(1.0,) * 3, width=2.0, height=2.0, texture=0)
+    cam = D.Camera(path='/cam', matrix=look_at((0.0, 4.0, 0.0), (0.0, 0.0, 0.0), up=(0.0, 0.0, 1.0)),
+                   projection='orthographic', horizontal_aperture=2.0, vertical_aperture=2.0)
+    desc = scene([D.Container('/', meshes=[quad(8.0, y=-1.0)])], [D.Material('/m')], [light], cam, width=16, height=16,
+                 textures=(D.Texture(path='/q.exr', pixels=px, wrap_s='clamp', wrap_t='clamp'),))
+    with Renderer(desc, threads=1) as r:
+        img = r.render(RenderOptions(spp=4, integrator='path', max_depth=1)).image.astype(np.float64)
+    quads = {'top-left': img[1:6, 1:6], 'top-right': img[1:6, 10:15], 'bottom-left': img[10:15, 1:6],
+             'bottom-right': img[10:15, 10:15]}
+    expect = {'top-left': (1, 0, 0), 'top-right': (0, 1, 0), 'bottom-left': (0, 0, 1), 'bottom-right': (1, 1, 1)}
+    for name, block in quads.items():
+        assert np.allclose(block.reshape(-1, block.shape[-1])[:, :3], expect[name], atol=1e-3), name
+
+
+def _spot(n=32):
+    """A dim image with one hot spot off-centre: most of the light from 1/64 of the rect."""
+    px = np.full((n, n, 3), 0.02, np.float32)
+    px[4:8, 20:24] = (40.0, 30.0, 20.0)
+    return D.Texture(path='/spot.exr', pixels=px, wrap_s='clamp', wrap_t='clamp')
+
+
+@pytest.mark.parametrize('height', [0.6, 5.0])
+def test_light_and_bsdf_sampling_of_an_imaged_rect_agree(height):
+    desc = _imaged(rect_light((0.2, height, -0.1), 1.5, 1.0, (0.5,) * 3), _spot())
+    nee, bsdf, mis = estimator_means(desc, nee_spp=512, bsdf_spp=4096, mis_spp=512)
+    assert mis > 1e-4
+    assert nee == pytest.approx(mis, rel=0.01) and bsdf == pytest.approx(mis, rel=0.015), (nee, bsdf, mis)
+
+
+def test_far_points_are_drawn_by_the_image():
+    """Seen from far, light samples follow the image: the estimate of a floor lit by a rect with one hot spot is
+    much less noisy than with the points drawn uniformly over the rect (the image tables dropped)."""
+    desc = _imaged(rect_light((0.0, 5.0, 0.0), 1.5, 1.0, (0.5,) * 3), _spot())
+    with Renderer(desc, threads=2) as r:
+        ref = r.render(RenderOptions(spp=256, integrator='path', max_depth=1)).image.astype(np.float64)
+        err = [np.sqrt(np.mean((r.render(RenderOptions(spp=4, seed=s, integrator='path', max_depth=1,
+                                                       sampler='independent', strategy='nee')).image - ref) ** 2))
+               for s in range(3)]
+    uniform = _uniform_error(desc, ref)
+    assert np.mean(err) < 0.3 * uniform, (np.mean(err), uniform)
+
+
+def _uniform_error(desc, ref):
+    """The same estimate's RMS error with the image's distribution dropped (uniform points, the image a factor)."""
+    import rtc.renderer.host.light_selection as LS
+    real = LS.image_tables
+
+    def without_rects(d):
+        image_i, cdf, means = real(d)
+        for k, l in enumerate(d.lights):
+            if l.type == D.RECT:
+                image_i[k] = -1
+        return image_i, cdf, means
+    LS.image_tables = without_rects
+    try:
+        with Renderer(desc, threads=2) as r:
+            return np.mean([np.sqrt(np.mean((r.render(RenderOptions(
+                spp=4, seed=s, integrator='path', max_depth=1, sampler='independent', strategy='nee')).image - ref)
+                ** 2)) for s in range(3)])
+    finally:
+        LS.image_tables = real
+
+
+def test_the_power_of_an_imaged_rect_is_scaled_by_the_image_mean():
+    desc = _imaged(rect_light((0.0, 2.0, 0.0), 2.0, 1.0, (5.0,) * 3), _half(lit='left'))
+    with Renderer(desc, threads=1) as r:
+        li_f = r.built.data.li_f
+    plain = light_phi(desc, li_f, 10.0, {})
+    imaged = light_phi(desc, li_f, 10.0, image_tables(desc)[2])
+    assert imaged[0] == pytest.approx(0.5 * plain[0], rel=1e-9)
+    assert plain[0] == pytest.approx(2.0 * 5.0, rel=1e-9)                # area x luminance
+
+
+def _stage(tmp_path, texture):
+    st = Usd.Stage.CreateNew(str(tmp_path / 'rect.usda'))
+    UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+    light = UsdLux.RectLight.Define(st, '/World/Panel')
+    light.CreateWidthAttr(2.0)
+    light.CreateHeightAttr(1.0)
+    if texture is not None:
+        light.CreateTextureFileAttr(Sdf.AssetPath(texture))
+    UsdGeom.Xformable(light).AddTranslateOp().Set(Gf.Vec3d(0, 3, 0))
+    cam = UsdGeom.Camera.Define(st, '/World/Camera')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 1, 8))
+    st.Save()
+    return tmp_path / 'rect.usda'
+
+
+def test_the_stage_reader_reads_a_rect_light_image(tmp_path):
+    exr_file(tmp_path / 'panel.exr', np.full((4, 8, 3), 0.5, np.float32))
+    desc = read_stage(str(_stage(tmp_path, 'panel.exr')))
+    (light,) = desc.lights
+    assert light.type == D.RECT and light.texture >= 0
+    tex = desc.textures[light.texture]
+    assert (tex.wrap_s, tex.wrap_t) == ('clamp', 'clamp') and tex.pixels.shape[:2] == (4, 8)
+    assert not any('texture' in w for w in desc.warnings), desc.warnings
+
+
+def test_a_missing_rect_light_image_is_warned_and_the_light_kept(tmp_path):
+    desc = read_stage(str(_stage(tmp_path, 'nowhere.exr')))
+    (light,) = desc.lights
+    assert light.texture == -1
+    assert any('/World/Panel' in w and 'nowhere.exr' in w for w in desc.warnings), desc.warnings
+
+
+@pytest.mark.parametrize('where, alpha, metallic', [((0.3, 1.8, -4.6), 0.3, False),     # near: solid angle
+                                                    ((1.0, 0.0, 9.0), 0.3, False),      # far: by the image
+                                                    ((0.3, 0.0, -4.0), 0.0225, True)])  # a metal's lobe
+def test_a_ray_meeting_an_imaged_rect_gets_the_light_samples_emission_and_pdf(where, alpha, metallic):
+    """For each light sample of a rect with one hot spot, a ray from the vertex along its direction meets the light
+    at its distance, and the emission `shape_emission` gives that ray, weighed as if the BSDF had drawn it with
+    the light sample's pdf, is half the sample's own: the image is read at the same point, and the ray that meets
+    the light is weighed by the density the light sample was drawn with (the MIS weights sum to 1)."""
+    import math
+    from rtc.renderer.host.build import build
+    from rtc.renderer.host.light_selection import path_lights
+    from rtc.renderer.kernel import lobe_sampling as R
+    from rtc.renderer.kernel.light_sampling import hit_shape, sample_ld_lobe, shape_emission
+    from rtc.renderer.kernel.light_tree import light_pmf
+    from tests.accuracy.test_lobe_sampling import CENTRE, H, W, vertex
+    desc = _imaged(rect_light(tuple(CENTRE), W, H, (5.0,) * 3), _spot())
+    built = build(desc)
+    try:
+        S = built.data
+        L, _ = path_lights(desc, S.li_f, built.top.bounds(), len(built.top.groups))
+        vtx, sb, _ = vertex(S, where, CENTRE, alpha, metallic)
+        lobe = R.glossy_lobe(sb, (vtx.tt, vtx.bb, vtx.ns))
+        assert (lobe[4] == 1.0) == metallic
+        pmf = light_pmf(L, vtx.p, vtx.ns, 0)
+        met, spread = 0, []
+        for u in np.random.default_rng(3).random((300, 2)):
+            wi, dist, Le, pdf, delta = sample_ld_lobe(S, L, 0, vtx, (float(u[0]), float(u[1])))
+            if not pdf > 0.0:
+                continue
+            t, _ = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
+            assert t == pytest.approx(dist, rel=1e-9)
+            e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pmf * pdf, 0, lobe))
+            assert np.allclose(e, 0.5 * np.asarray(Le), rtol=1e-6, atol=0.0), (e, Le)
+            spread.append(Le[0])
+            met += 1
+        assert met > 100 and max(spread) > 100 * min(spread)            # (samples on the spot and off it)
+    finally:
+        built.close()
