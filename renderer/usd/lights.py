@@ -63,8 +63,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
                load_texture: Callable, warn: Warn) -> Optional[Light]:
     """A Light for a UsdLux light prim, or None (with a warning) when it cannot be used.
 
-    `load_texture(asset_path, owner, wrap_s, wrap_t) -> index` loads a DomeLight's lat-long image and a
-    RectLight's image."""
+    `load_texture(asset_path, owner, wrap_s, wrap_t, upside_down) -> index` loads a DomeLight's lat-long image
+    and a RectLight's image (upside down: its rows in reverse order)."""
     path, kind = str(prim.GetPath()), prim.GetTypeName()
     bad = _nonfinite_input(prim, time)
     if bad is not None:                   # (an infinite width: its samples' directions NaN, which Embree must not see)
@@ -96,7 +96,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
         if asset is not None and asset.path:
             fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
             if fmt in ('automatic', 'latlong'):
-                texture = load_texture(asset, path, 'repeat', 'clamp')
+                texture = load_texture(asset, path, 'repeat', 'clamp', False)
             else:
                 warn(f'{path}: dome texture format "{fmt}" is not supported; constant colour')
         return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture)
@@ -106,7 +106,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     if light is not None and light.type == RECT:
         asset = UsdLux.RectLight(prim).GetTextureFileAttr().Get(time)
         if asset is not None and asset.path:          # (clamped at its edges: the image ends where the rect does)
-            light.texture = load_texture(asset, path, 'clamp', 'clamp')
+            # under a mirroring transform the rigid frame's Y is the light's -Y: the image upside down in it
+            light.texture = load_texture(asset, path, 'clamp', 'clamp', bool(np.linalg.det(to_world[:3, :3]) < 0))
     if light is not None:
         light.shaping = _shaping(prim, path, light.type, time, warn)
         _ies(light, prim, time, warn)

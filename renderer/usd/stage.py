@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 import os
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Optional, Union
 
 import numpy as np
@@ -378,8 +378,13 @@ class _Reader:
                             self.backgrounds.add(light.path)
         return lights
 
-    def _light_texture(self, asset, owner: str, wrap_s: str, wrap_t: str) -> int:
-        return self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True)
+    def _light_texture(self, asset, owner: str, wrap_s: str, wrap_t: str, upside_down: bool) -> int:
+        index = self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True)
+        if upside_down and index >= 0:                # (a copy whose rows are reversed: a mirrored light's)
+            t = self.materials.textures[index]
+            self.materials.textures.append(replace(t, pixels=np.ascontiguousarray(t.pixels[::-1])))
+            index = len(self.materials.textures) - 1
+        return index
 
 
 def _is_course_background(prim: Usd.Prim, time: Usd.TimeCode) -> bool:

@@ -221,3 +221,58 @@ def test_a_ray_meeting_an_imaged_rect_gets_the_light_samples_emission_and_pdf(wh
         assert met > 100 and max(spread) > 100 * min(spread)            # (samples on the spot and off it)
     finally:
         built.close()
+
+
+def _quadrants():
+    px = np.zeros((16, 16, 3), np.float32)
+    px[:8, :8], px[:8, 8:], px[8:, :8], px[8:, 8:] = (1, 0, 0), (0, 1, 0), (0, 0, 1), (1, 1, 1)
+    return px
+
+
+def _facing_stage(tmp_path, mirrored):
+    """A 2 x 2 RectLight with the quadrant image before an orthographic camera that looks at its emitting side,
+    its up along the light's +Y; the light mirrored by a scale of -1 along its X, or not."""
+    exr_file(tmp_path / 'quadrants.exr', _quadrants())
+    name = 'mirrored' if mirrored else 'plain'
+    st = Usd.Stage.CreateNew(str(tmp_path / f'{name}.usda'))
+    UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+    light = UsdLux.RectLight.Define(st, '/World/Panel')
+    light.CreateWidthAttr(2.0)
+    light.CreateHeightAttr(2.0)
+    light.CreateTextureFileAttr(Sdf.AssetPath('quadrants.exr'))
+    if mirrored:
+        light.AddScaleOp().Set(Gf.Vec3f(-1.0, 1.0, 1.0))
+    floor = UsdGeom.Mesh.Define(st, '/World/Back')          # (behind the light: unlit, black)
+    floor.CreatePointsAttr([(-5, -5, 3), (5, -5, 3), (5, 5, 3), (-5, 5, 3)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 1, 2, 3])
+    cam = UsdGeom.Camera.Define(st, '/World/Camera')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 0, -4))
+    cam.AddRotateYOp().Set(180.0)                            # (looking along +Z at the light's -Z face)
+    cam.CreateProjectionAttr(UsdGeom.Tokens.orthographic)
+    cam.CreateHorizontalApertureAttr(20.0)                   # (tenths of a unit: 2 units across)
+    cam.CreateVerticalApertureAttr(20.0)
+    st.Save()
+    return read_stage(str(tmp_path / f'{name}.usda'))
+
+
+def test_a_mirrored_light_shows_its_image_mirrored(tmp_path):
+    """Through the stage reader: the light as authored shows the image upright (its top-left red at the camera's
+    top-left); mirrored along its X, the image mirrored left to right (not turned upside down, which the rigid
+    frame alone would give)."""
+    images = []
+    for mirrored in (False, True):
+        desc = _facing_stage(tmp_path, mirrored)
+        desc.settings.width = desc.settings.height = 16
+        with Renderer(desc, threads=1) as r:
+            images.append(r.render(RenderOptions(spp=4, integrator='path', max_depth=1)).image[..., :3].astype(
+                np.float64))
+    plain, mirrored = images
+    inner = {'top-left': (slice(3, 6), slice(3, 6)), 'top-right': (slice(3, 6), slice(10, 13)),
+             'bottom-left': (slice(10, 13), slice(3, 6)), 'bottom-right': (slice(10, 13), slice(10, 13))}
+    colour = {'top-left': (1, 0, 0), 'top-right': (0, 1, 0), 'bottom-left': (0, 0, 1), 'bottom-right': (1, 1, 1)}
+    across = {'top-left': 'top-right', 'top-right': 'top-left', 'bottom-left': 'bottom-right',
+              'bottom-right': 'bottom-left'}
+    for name, window in inner.items():
+        assert np.allclose(plain[window], colour[name], atol=1e-3), name
+        assert np.allclose(mirrored[window], colour[across[name]], atol=1e-3), name
