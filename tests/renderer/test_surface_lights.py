@@ -248,22 +248,25 @@ def test_more_than_max_triangles_of_emissive_surfaces_are_warned():
 
 
 def test_the_lights_example_scene_samples_every_kind_of_light():
-    """scenes/lights.usda (the path gallery's USD example): a RectLight, a CylinderLight, a spotlight (shaped
-    SphereLight) and a sconce (a SphereLight with an IES profile, normalised) read as lights, the MeshLightAPI panel
-    and the emissive sphere as the two emissive-surface lights, all in the tree; no warning (the sconce has the
-    90-degree cone ShapingAPI applies where no angle is authored);
+    """scenes/lights.usda (the path gallery's USD example): a RectLight, a lit sign (a RectLight with an image), a
+    CylinderLight, a spotlight (shaped SphereLight) and a sconce (a SphereLight with an IES profile, normalised) read
+    as lights, the MeshLightAPI panel and the emissive sphere as the two emissive-surface lights, all in the tree; no
+    warning (the sconce has the 90-degree cone ShapingAPI applies where no angle is authored);
     a small path render of it is finite and lit."""
     from pathlib import Path
     from rtc.renderer.host.render import RenderOptions, Renderer
     desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'lights.usda'))
-    assert sorted(l.type for l in desc.lights) == sorted([D.RECT, D.CYLINDER, D.SPHERE, D.SPHERE]) and not desc.warnings
+    assert sorted(l.type for l in desc.lights) == sorted([D.RECT, D.RECT, D.CYLINDER, D.SPHERE, D.SPHERE])
+    assert not desc.warnings
     spot, sconce = (next(l for l in desc.lights if l.path == p) for p in ('/World/Spot', '/World/Sconce'))
     assert spot.shaping == (20.0, pytest.approx(0.35), 0.0, (0.0, 0.0, 0.0)) and spot.ies is None
     assert sconce.shaping == (90.0, 0.0, 0.0, (0.0, 0.0, 0.0)) and sconce.ies.candela.max() == 1000.0
     assert sconce.ies_gain == 1.0 / sconce.ies.mean
+    sign = next(l for l in desc.lights if l.path == '/World/Sign')
+    assert sign.texture >= 0 and desc.textures[sign.texture].path.endswith('sign.png')
     with _path_lights(desc) as (built, L):
-        assert L.n_surface == 2 and L.surface_first == 4
-        assert (L.depth[:6] >= 0).all()                  # all six in the tree
+        assert L.n_surface == 2 and L.surface_first == 5
+        assert (L.depth[:7] >= 0).all()                  # all seven in the tree
     with Renderer(desc) as r:
         img = r.render(RenderOptions(width=48, height=36, spp=4, integrator='path', max_depth=2)).image
     assert np.isfinite(img).all() and img.mean() > 0.01
