@@ -276,3 +276,20 @@ def test_a_mirrored_light_shows_its_image_mirrored(tmp_path):
     for name, window in inner.items():
         assert np.allclose(plain[window], colour[name], atol=1e-3), name
         assert np.allclose(mirrored[window], colour[across[name]], atol=1e-3), name
+
+
+def test_the_image_tables_are_inverted_as_a_sorted_search_does():
+    """`dome_sampling.invert` (a dome's and a rect's image tables): the bin of u is the largest i with cdf[i] <= u,
+    as numpy's sorted search finds it, empty bins (repeated values) skipped, at the ends too."""
+    from rtc.renderer.kernel.dome_sampling import invert
+    rng = np.random.default_rng(11)
+    for n in (1, 2, 3, 7, 64, 97):
+        w = rng.random(n) * (rng.random(n) > 0.3)
+        w[rng.integers(n)] += 0.1
+        cdf = np.concatenate([[0.0], np.cumsum(w) / w.sum()])
+        cdf[-1] = 1.0
+        pad = np.concatenate([rng.random(5), cdf])            # (at an offset, as in the flat tables)
+        for u in np.concatenate([rng.random(200), cdf[cdf < 1.0], [0.0, 0.99999994]]):     # (u < 1, as drawn)
+            i, frac, p = invert.py_func(pad, 5, n, u)
+            assert i == np.searchsorted(cdf, u, side='right') - 1
+            assert p == cdf[i + 1] - cdf[i] and (p == 0.0 or 0.0 <= frac <= 1.0)

@@ -1,0 +1,200 @@
+"""What drawing a textured rect light's points by its image buys: the path integrator as shipped (points of a rect
+seen from farther than its diagonal drawn by the image's luminance, `kernel/rect_sampling.py`) against the same
+renderer with the rects' image tables dropped (points uniform over the rect, the image a factor of the emission),
+in one process, renders alternating (`--rounds`).
+
+    python benchmarks/bench_rect_images.py [--spp 16] [--ref-spp 1024] [--rounds 3] [--threads 2]
+
+Stages (USD, written to a temporary folder and read by the stage reader):
+* *window* (diffuse): a floor and a box lit by a 2.4 x 1.6 RectLight whose image is a window (four panes behind a
+  dark frame: a mild contrast), 4.7 m away, and a dim dome.
+* *sign* (glossy): a plastic floor (roughness 0.25) and a rough gold sphere lit by a 3 x 1 RectLight whose image is
+  an LED sign (three bright strokes on black: 23 % of the texels hold all the light).
+* *panels* (many lights): a matte floor under an 8 x 8 grid of 0.6 x 0.2 RectLights 2.5 m up, each with the sign's
+  image (one file, read once).
+Reported per stage and variant: relative RMSE at `--spp` against a `--ref-spp` reference of the shipped renderer
+(another seed), time a sample, and the efficiency 1 / (relMSE x time) of the image strategy over the uniform one.
+"""
+from __future__ import annotations
+
+import argparse
+import statistics
+import tempfile
+import time
+from pathlib import Path
+
+import numpy as np
+
+
+
+def _material(st, path, diffuse, roughness, metallic=0.0):
+    from pxr import Gf, Sdf, UsdShade
+    mat = UsdShade.Material.Define(st, path)
+    sh = UsdShade.Shader.Define(st, path + '/S')
+    sh.CreateIdAttr('UsdPreviewSurface')
+    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*diffuse))
+    sh.CreateInput('roughness', Sdf.ValueTypeNames.Float).Set(roughness)
+    sh.CreateInput('metallic', Sdf.ValueTypeNames.Float).Set(metallic)
+    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
+    return mat
+
+
+def _aimed(at, target):
+    """A light's transform (USD's row-vector matrix) at `at` whose emission (its local -Z) points at `target`, its
+    local +Y as near world +Y as that allows."""
+    from pxr import Gf
+    z = np.asarray(at, float) - np.asarray(target, float)
+    z /= np.linalg.norm(z)                                   # (local +Z: away from the target)
+    x = np.cross((0.0, 1.0, 0.0), z)
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    return Gf.Matrix4d(*x, 0.0, *y, 0.0, *z, 0.0, *at, 1.0)
+
+
+def window_image(path: Path) -> None:
+    """A window of four panes (daylight, warm at the top, paler blue below) behind a dark frame, 96 x 64."""
+    import OpenImageIO as oiio
+    h, w = 64, 96
+    y = (np.arange(h) + 0.5) / h
+    img = np.repeat(np.stack([1.0 - 0.25 * y, 0.95 - 0.1 * y, 0.8 + 0.15 * y], -1)[:, None, :], w, 1)
+    frame = np.zeros((h, w), bool)
+    frame[:5], frame[-5:], frame[:, :5], frame[:, -5:] = True, True, True, True
+    frame[h // 2 - 2:h // 2 + 2], frame[:, w // 2 - 2:w // 2 + 2] = True, True
+    img[frame] = (0.05, 0.04, 0.03)
+    buf = oiio.ImageBuf(oiio.ImageSpec(w, h, 3, 'float'))
+    buf.set_pixels(oiio.ROI(0, w, 0, h), np.ascontiguousarray(img, np.float32))
+    buf.write(str(path))
+
+
+def sign_image(path: Path) -> None:
+    """An LED sign: three bright strokes (a 'Z', roughly) on black, 96 x 32."""
+    import OpenImageIO as oiio
+    img = np.zeros((32, 96, 3), np.float32)
+    img[4:8, 8:88] = (1.0, 0.6, 0.2)
+    img[24:28, 8:88] = (1.0, 0.6, 0.2)
+    for i in range(16):
+        img[8 + i, 84 - 5 * i:88 - 5 * i] = (1.0, 0.6, 0.2)
+    buf = oiio.ImageBuf(oiio.ImageSpec(96, 32, 3, 'float'))
+    buf.set_pixels(oiio.ROI(0, 96, 0, 32), img)
+    buf.write(str(path))
+
+
+def stage(folder: Path, name: str) -> Path:
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
+    path = folder / f'{name}.usda'
+    st = Usd.Stage.CreateNew(str(path))
+    UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
+    glossy = name == 'sign'
+    floor_mat = _material(st, '/Looks/Floor', (0.5, 0.5, 0.5), 0.25 if glossy else 0.8)         # (plastic or matte)
+    floor = UsdGeom.Mesh.Define(st, '/World/Floor')
+    floor.CreatePointsAttr([(-8, 0, -8), (8, 0, -8), (8, 0, 8), (-8, 0, 8)])
+    floor.CreateFaceVertexCountsAttr([4])
+    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(floor_mat)
+    if glossy:
+        ball = UsdGeom.Sphere.Define(st, '/World/Ball')
+        ball.CreateRadiusAttr(0.8)
+        ball.AddTranslateOp().Set(Gf.Vec3d(0.6, 0.8, 0.3))
+        UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(
+            _material(st, '/Looks/Gold', (1.0, 0.78, 0.34), 0.3, 1.0))
+        sign_image(folder / 'sign.exr')
+        light = UsdLux.RectLight.Define(st, '/World/Sign')
+        light.CreateWidthAttr(3.0)
+        light.CreateHeightAttr(1.0)
+        light.CreateIntensityAttr(30.0)
+        light.CreateTextureFileAttr(Sdf.AssetPath('sign.exr'))
+        light.AddTransformOp().Set(_aimed((-0.5, 3.0, -4.0), (0.0, 0.0, 0.0)))
+    elif name == 'panels':
+        sign_image(folder / 'sign.exr')
+        for k in range(64):
+            panel = UsdLux.RectLight.Define(st, f'/World/Panels/P{k}')
+            panel.CreateWidthAttr(0.6)
+            panel.CreateHeightAttr(0.2)
+            panel.CreateIntensityAttr(4.0)
+            panel.CreateTextureFileAttr(Sdf.AssetPath('sign.exr'))
+            panel.AddTranslateOp().Set(Gf.Vec3d(-5.6 + 1.6 * (k % 8), 2.5, -5.6 + 1.6 * (k // 8)))
+            panel.AddRotateXOp().Set(-90.0)                  # (facing down)
+    else:
+        box = UsdGeom.Cube.Define(st, '/World/Box')
+        box.CreateSizeAttr(1.2)
+        box.AddTranslateOp().Set(Gf.Vec3d(0.5, 0.6, 0.0))
+        UsdShade.MaterialBindingAPI.Apply(box.GetPrim()).Bind(floor_mat)
+        light = UsdLux.RectLight.Define(st, '/World/Window')
+        light.CreateWidthAttr(2.4)
+        light.CreateHeightAttr(1.6)
+        light.CreateIntensityAttr(15.0)
+        window_image(folder / 'window.exr')
+        light.CreateTextureFileAttr(Sdf.AssetPath('window.exr'))
+        light.AddTransformOp().Set(_aimed((-2.0, 3.0, -3.0), (0.0, 0.0, 0.0)))
+        UsdLux.DomeLight.Define(st, '/World/Sky').CreateIntensityAttr(0.05)
+    cam = UsdGeom.Camera.Define(st, '/World/Camera')
+    cam.AddTranslateOp().Set(Gf.Vec3d(0, 3.0, 7.0))
+    cam.AddRotateXOp().Set(-20.0)
+    cam.CreateFocalLengthAttr(28.0)
+    UsdRender.Settings.Define(st, '/Render/Settings').CreateResolutionAttr(Gf.Vec2i(160, 120))
+    st.Save()
+    return path
+
+
+def renderers(usd: Path, threads: int):
+    """{'image': the renderer as shipped, 'uniform': the rects' image tables dropped}."""
+    import rtc.renderer.host.light_selection as LS
+    from rtc.renderer import description as D
+    from rtc.renderer.host.render import Renderer
+    from rtc.renderer.options import RenderOptions
+    from rtc.renderer.usd.stage import read_stage
+    real = LS.image_tables
+
+    def uniform(desc):
+        image_i, cdf, means = real(desc)
+        for k, light in enumerate(desc.lights):
+            if light.type == D.RECT:
+                image_i[k] = -1
+        return image_i, cdf, means
+    out = {'image': Renderer(read_stage(str(usd)), threads=threads)}
+    LS.image_tables = uniform
+    try:
+        out['uniform'] = Renderer(read_stage(str(usd)), threads=threads)
+        out['uniform'].render(RenderOptions(spp=1, integrator='path'))     # (its light tables: built here)
+    finally:
+        LS.image_tables = real
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    ap.add_argument('--spp', type=int, default=16)
+    ap.add_argument('--ref-spp', type=int, default=1024)
+    ap.add_argument('--rounds', type=int, default=3)
+    ap.add_argument('--threads', type=int, default=2)
+    a = ap.parse_args()
+    from rtc.renderer.options import RenderOptions
+    with tempfile.TemporaryDirectory() as tmp:
+        for name in ('window', 'sign', 'panels'):
+            rs = renderers(stage(Path(tmp), name), a.threads)
+            rs['image'].render(RenderOptions(spp=1, integrator='path'))
+            ref = rs['image'].render(RenderOptions(spp=a.ref_spp, seed=1000, integrator='path')).image.astype(
+                np.float64)
+            norm = np.sqrt(np.mean(ref ** 2))
+            err = {n: [] for n in rs}
+            secs = {n: [] for n in rs}
+            for k in range(a.rounds):
+                order = list(rs) if k % 2 == 0 else list(rs)[::-1]
+                for n in order:
+                    t0 = time.perf_counter()
+                    img = rs[n].render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path')).image
+                    secs[n].append((time.perf_counter() - t0) / a.spp)
+                    err[n].append(float(np.sqrt(np.mean((img - ref) ** 2)) / norm))
+            e = {n: statistics.median(err[n]) for n in rs}
+            t = {n: statistics.median(secs[n]) for n in rs}
+            print(f'{name}: relRMSE image {e["image"]:.4f} uniform {e["uniform"]:.4f} '
+                  f'({e["image"] / e["uniform"]:.3f}x);'
+                  f' time a sample {1e3 * t["image"]:.1f} / {1e3 * t["uniform"]:.1f} ms '
+                  f'({t["image"] / t["uniform"]:.3f}x); efficiency '
+                  f'{(e["uniform"] ** 2 * t["uniform"]) / (e["image"] ** 2 * t["image"]):.2f}x', flush=True)
+            for r in rs.values():
+                r.close()
+
+
+if __name__ == '__main__':
+    main()
