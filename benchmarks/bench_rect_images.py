@@ -136,29 +136,37 @@ def stage(folder: Path, name: str) -> Path:
     return path
 
 
-def renderers(usd: Path, threads: int):
-    """{'image': the renderer as shipped, 'uniform': the rects' image tables dropped}."""
+def uniform_renderer(desc, threads: int):
+    """A Renderer of `desc` whose path integrator draws rect lights' points as if they had no image (the rects' image
+    tables dropped: uniform by area far away, the image still a factor of the emission): the baseline of the image
+    strategy.  Its light tables are built at its first path render, made here while `image_tables` is patched."""
     import rtc.renderer.host.light_selection as LS
     from rtc.renderer import description as D
     from rtc.renderer.host.render import Renderer
     from rtc.renderer.options import RenderOptions
-    from rtc.renderer.usd.stage import read_stage
     real = LS.image_tables
 
-    def uniform(desc):
-        image_i, cdf, means = real(desc)
-        for k, light in enumerate(desc.lights):
+    def uniform(d):
+        image_i, cdf, means = real(d)
+        for k, light in enumerate(d.lights):
             if light.type == D.RECT:
                 image_i[k] = -1
         return image_i, cdf, means
-    out = {'image': Renderer(read_stage(str(usd)), threads=threads)}
     LS.image_tables = uniform
     try:
-        out['uniform'] = Renderer(read_stage(str(usd)), threads=threads)
-        out['uniform'].render(RenderOptions(spp=1, integrator='path'))     # (its light tables: built here)
+        r = Renderer(desc, threads=threads)
+        r.render(RenderOptions(spp=1, width=8, height=8, integrator='path'))
     finally:
         LS.image_tables = real
-    return out
+    return r
+
+
+def renderers(usd: Path, threads: int):
+    """{'image': the renderer as shipped, 'uniform': `uniform_renderer`}."""
+    from rtc.renderer.host.render import Renderer
+    from rtc.renderer.usd.stage import read_stage
+    return {'image': Renderer(read_stage(str(usd)), threads=threads),
+            'uniform': uniform_renderer(read_stage(str(usd)), threads)}
 
 
 def main() -> None:

@@ -122,23 +122,11 @@ def test_far_points_are_drawn_by_the_image():
 
 def _uniform_error(desc, ref):
     """The same estimate's RMS error with the image's distribution dropped (uniform points, the image a factor)."""
-    import rtc.renderer.host.light_selection as LS
-    real = LS.image_tables
-
-    def without_rects(d):
-        image_i, cdf, means = real(d)
-        for k, l in enumerate(d.lights):
-            if l.type == D.RECT:
-                image_i[k] = -1
-        return image_i, cdf, means
-    LS.image_tables = without_rects
-    try:
-        with Renderer(desc, threads=2) as r:
-            return np.mean([np.sqrt(np.mean((r.render(RenderOptions(
-                spp=4, seed=s, integrator='path', max_depth=1, sampler='independent', strategy='nee')).image - ref)
-                ** 2)) for s in range(3)])
-    finally:
-        LS.image_tables = real
+    from benchmarks.bench_rect_images import uniform_renderer
+    with uniform_renderer(desc, 2) as r:
+        return np.mean([np.sqrt(np.mean((r.render(RenderOptions(
+            spp=4, seed=s, integrator='path', max_depth=1, sampler='independent', strategy='nee')).image - ref) ** 2))
+            for s in range(3)])
 
 
 def test_the_power_of_an_imaged_rect_is_scaled_by_the_image_mean():
