@@ -31,7 +31,7 @@ import math
 from typing import Callable, Optional
 
 import numpy as np
-from pxr import Usd, UsdGeom, UsdLux
+from pxr import Sdf, Usd, UsdGeom, UsdLux
 
 from ..description import CYLINDER, DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
 from .ies import IesError, read_ies
@@ -91,9 +91,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
                 m = to_world @ _rotate_x(90.0)        # the dome's top pole (+Y) onto local +Z
         frame, _ = rigid_frame(m)
         texture = -1
-        asset = UsdLux.DomeLight(prim).GetTextureFileAttr().Get(time) if kind == 'DomeLight' else \
-            prim.GetAttribute('inputs:texture:file').Get(time)
-        if asset is not None and asset.path:
+        asset = _asset_input(prim, 'inputs:texture:file', path, time, warn)
+        if asset is not None:
             fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
             if fmt in ('automatic', 'latlong'):
                 texture = load_texture(asset, path, 'repeat', 'clamp', False)
@@ -104,8 +103,8 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     frame, scale = rigid_frame(to_world)
     light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
     if light is not None and light.type == RECT:
-        asset = UsdLux.RectLight(prim).GetTextureFileAttr().Get(time)
-        if asset is not None and asset.path:          # (clamped at its edges: the image ends where the rect does)
+        asset = _asset_input(prim, 'inputs:texture:file', path, time, warn)
+        if asset is not None:                         # (clamped at its edges: the image ends where the rect does)
             # under a mirroring transform the rigid frame's Y is the light's -Y: the image upside down in it
             light.texture = load_texture(asset, path, 'clamp', 'clamp', bool(np.linalg.det(to_world[:3, :3]) < 0))
     if light is not None:
@@ -115,6 +114,22 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     if light is not None and course and course.Get(time) is not None:
         light.course_intensity = _rgb(course.Get(time))
     return light
+
+
+def _asset_input(prim: Usd.Prim, name: str, path: str, time: Usd.TimeCode, warn: Warn) -> Optional[Sdf.AssetPath]:
+    """The asset path of the light's input `name` (`inputs:texture:file`, `inputs:shaping:ies:file`), None where none
+    is authored (or an empty one); an attribute authored with another type (a string, a number) is warned and read
+    as none, as Hydra reads it (its light adapters take the value only if it holds an asset path)."""
+    attr = prim.GetAttribute(name)
+    value = attr.Get(time) if attr else None
+    if value is None:
+        return None
+    if not isinstance(value, Sdf.AssetPath):
+        stack = attr.GetPropertyStack(time)                  # (its authored type: the schema's says asset)
+        kind = str(stack[0].typeName) if stack else type(value).__name__
+        warn(f'{path}.{name}: authored as {kind}, not an asset path; the light without it')
+        return None
+    return value if value.path else None
 
 
 def _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn) -> Optional[Light]:
@@ -202,9 +217,8 @@ def _ies(light: Light, prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> None:
     (`usd/ies.py`); so does a DistantLight's (one direction).  An angleScale that is not finite or at most -1 (a
     mapping of no angle) is warned and not applied."""
     api = UsdLux.ShapingAPI(prim)
-    attr = api.GetShapingIesFileAttr()
-    asset = attr.Get(time) if attr else None
-    if asset is None or not asset.path:
+    asset = _asset_input(prim, 'inputs:shaping:ies:file', light.path, time, warn)
+    if asset is None:
         return
     where = f'{light.path}.inputs:shaping:ies:file'
     if light.type == DISTANT:

@@ -312,3 +312,44 @@ def test_a_black_image_puts_the_light_out(integrator):
     for height in (0.5, 4.0):
         img = _render(_imaged(rect_light((0.0, height, 0.0), 1.5, 1.0, (5.0,) * 3), tex), integrator, 8)
         assert np.isfinite(img).all() and img[..., :3].max() == 0.0
+
+
+def test_a_light_image_authored_with_the_wrong_type_is_warned_and_the_light_kept(tmp_path):
+    """`inputs:texture:file` authored as a string or a number (the schema says asset), on a RectLight or a DomeLight,
+    and `inputs:shaping:ies:file` as a string: each light kept without its image or profile, a warning naming the prim, the attribute and the authored type; an empty
+    asset path is no image, silently; a file that is no image is named."""
+    (tmp_path / 'bad.usda').write_text('''#usda 1.0
+def RectLight "Text"
+{
+    string inputs:texture:file = "panel.png"
+}
+def RectLight "Number"
+{
+    int inputs:texture:file = 3
+}
+def RectLight "Empty"
+{
+    asset inputs:texture:file = @@
+}
+def RectLight "NotAnImage"
+{
+    asset inputs:texture:file = @bad.usda@
+}
+def DomeLight "Sky"
+{
+    string inputs:texture:file = "sky.exr"
+}
+def SphereLight "Lamp" (
+    prepend apiSchemas = ["ShapingAPI"]
+)
+{
+    string inputs:shaping:ies:file = "lamp.ies"
+}
+''')
+    desc = read_stage(str(tmp_path / 'bad.usda'))
+    assert len(desc.lights) == 6 and all(light.texture == -1 and light.ies is None for light in desc.lights)
+    for name, kind in (('/Text', 'string'), ('/Number', 'int'), ('/Sky', 'string')):
+        assert any(w.startswith(f'{name}.inputs:texture:file: authored as {kind}') for w in desc.warnings), name
+    assert any(w.startswith('/Lamp.inputs:shaping:ies:file: authored as string') for w in desc.warnings)
+    assert any('/NotAnImage' in w and 'bad.usda' in w for w in desc.warnings)
+    assert not any('/Empty' in w for w in desc.warnings)
