@@ -316,8 +316,9 @@ def test_a_black_image_puts_the_light_out(integrator):
 
 def test_a_light_image_authored_with_the_wrong_type_is_warned_and_the_light_kept(tmp_path):
     """`inputs:texture:file` authored as a string or a number (the schema says asset), on a RectLight or a DomeLight,
-    and `inputs:shaping:ies:file` as a string: each light kept without its image or profile, a warning naming the prim, the attribute and the authored type; an empty
-    asset path is no image, silently; a file that is no image is named."""
+    and `inputs:shaping:ies:file` as a string: each light kept without its image or profile, a warning naming the
+    prim, the attribute and the authored type; an empty asset path is no image, silently; a file that is no image
+    is named."""
     (tmp_path / 'bad.usda').write_text('''#usda 1.0
 def RectLight "Text"
 {
