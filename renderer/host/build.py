@@ -266,8 +266,8 @@ def _prototypes(dev: Device, containers: list, tables: GprimTables, kept: list):
     """One Embree scene per container, geometry re-centred on the container's centre; spheres that
     are not similarity-placed (ellipsoids) are left out and listed (container, sphere index) to be
     placed as instances of the unit sphere.  `kept`: the prototype scenes of an earlier build of the
-    same containers, taken over instead of built (empty: build them).  -> (scenes, centres, radii, first gprim per container,
-    Embree geometry -> gprim per container, ellipsoids)."""
+    same containers, taken over instead of built (empty: build them).  -> (scenes, centres, radii, first gprim per
+    container, Embree geometry -> gprim per container, ellipsoids)."""
     protos, centers, radii, pr_gp_start, pr_geom, ellipsoids = [], [], [], [], [], []
     for ci, c in enumerate(containers):
         ctr = _container_center(c)
@@ -445,8 +445,8 @@ def path_top(built: 'BuiltScene', containers: list, shapes, light_group: int):
       Otherwise the built placements stay instance arrays 0..n-1 and the light shapes are instances
       `light_group`, `light_group` + 1, ..., one per ray mask (each its own BVH: Embree tests a ray's
       mask against an instance's before it enters, but against a primitive's only in a leaf; their geomIDs
-      are those of `shape_geometry`'s order across them): Embree traverses one BVH per kind of geometry in a scene, and in
-      a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
+      are those of `shape_geometry`'s order across them): Embree traverses one BVH per kind of geometry in a scene,
+      and in a scene that keeps instances, geometry taken out of them adds a BVH that every ray traverses (Embree
       time 0.71x-1.33x measured: RESULTS.md, "The path integrator's top level").
     * Its spheres (placed, in the prototypes it instances, and the sphere lights) and the cylinder lights'
       shapes are user geometry, tested in float64 (`user_geometry.py`, `_path_prototypes`): the cylinders

@@ -11,9 +11,10 @@ delivers (exactly for a small light): point I, rect and disk A L (seen face on),
 2 r l L (seen across its axis), emissive surface A L (a flat one seen face on; no mesh of that area shows
 more: `surface_lights.py`).  Total powers (4 pi I, pi A L, 4 pi^2 r^2 L, as pbrt-v4's light bounds) would
 weigh a point light 4 times too much against an area light of the same irradiance, and the tree would
-spend light samples on minor point lights beside a dominant area light (`benchmarks/bench_many_lights.py`).  Distant and dome lights (outside the
-tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and 4 pi^2 R^2 L (texture mean), R the radius
-of the scene's bounds.  Luminances of the RGB values' magnitudes: a light of negative radiance (a
+spend light samples on minor point lights beside a dominant area light (`benchmarks/bench_many_lights.py`).
+Distant and dome lights (outside the tree, chosen uniformly beside it) need only phi > 0: pi R^2 E and
+4 pi^2 R^2 L (texture mean), R the radius of the scene's bounds.  A rect light's image scales its phi by the
+image's mean luminance.  Luminances of the RGB values' magnitudes: a light of negative radiance (a
 subtractive light, as the course integrator reads it) is chosen by how much it changes the image, so that
 light samples find it as BSDF samples do (an integrand of either sign is sampled in proportion to its
 magnitude).  An IES profile multiplies a light's phi by its largest weight (`kernel/ies_profiles.py`).
@@ -38,8 +39,8 @@ from .surface_lights import surface_lights, surface_lights_none
 
 PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'unbounded', 'n_bounded', 'shapes',
                                        'infinite', 'has_dome', 'image_i', 'image_cdf', 'light_group', 'geom_off',
-                                       'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri', 'sl_cdf',
-                                       'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through',
+                                       'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri',
+                                       'sl_cdf', 'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through',
                                        'shadow_packets'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
@@ -161,8 +162,8 @@ def shape_geometry(desc: D.SceneDescription, li_f: np.ndarray, shapes: list[int]
 
 def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, light_group: int,
                 data=None, shadow_packets: bool = True) -> tuple:
-    """(PathLights record, (the light shapes' geometry, their ray masks) or None: `shape_geometry`) of a built scene (li_f:
-    the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
+    """(PathLights record, (the light shapes' geometry, their ray masks) or None: `shape_geometry`) of a built
+    scene (li_f: the light table; bounds (2, 3) of the scene; light_group: the instance id that hits on light shapes
     report in the path integrator's top level, `build.path_top`;
     data: its `build.SceneData`, whose emissive surfaces become lights; None: none do).  `see_through`:
     whether a surface lets rays through (`features.see_through`; without `data`, whether a material

@@ -7,13 +7,15 @@ Delta lights (point; distant of zero angle) return delta = True, pdf 1 and Le = 
 deliver normal to wi (I / d^2, or E): next-event estimation alone sees them.
 
 Lights with extent: rect (uniform in the solid angle it subtends, the spherical rectangle of Urena et
-al. 2013, pdf = 1 / S; by area when S is tiny or nearly 2 pi), disk and the side of a cylinder
+al. 2013, pdf = 1 / S; by area when S is tiny or nearly 2 pi, or seen from farther than its diagonal, where a
+rect with an image draws its points by the image's luminance, `rect_sampling.py`), disk and the side of a cylinder
 (uniform by area: pdf = d^2 / (cos_l A)),
 sphere (uniform in the cone it subtends, exact), distant with an angle (uniform in its cone: radiance
 E / Omega), dome (importance sampling of its lat-long texture by luminance x sin(theta),
 `dome_sampling.py`; cosine-weighted about n when untextured).  From a vertex whose narrow GGX lobe carries
 most of its albedo, rect and disk lights are drawn towards the lobe instead (`sample_ld_lobe`,
 `lobe_sampling.py`), and a BSDF ray from it that meets one is weighed by that strategy's pdf.
+A rect light's image multiplies its emission wherever a light sample or a ray meets it (`_imaged_at`).
 Emissive surfaces are sampled by `surface_lights.sample_surface` (which `path.light_sample` calls for
 them: a moving one needs the ray's time and Embree's matrix at it).  Rects and disks emit from their
 front (local -Z) only, spheres and cylinders outwards (a cylinder from its side, not its caps: points

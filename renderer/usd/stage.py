@@ -236,7 +236,8 @@ class _Reader:
             if not ok.all():
                 self.warn(f'{graph.nodes[n].key}: {int((~ok).sum())} placements dropped (a matrix singular or not '
                           "finite, or placing it past float32's range)")
-            for variant, sel in (('', np.isin(purpose, RENDERED) & ok), ('#explicit', ~np.isin(purpose, RENDERED) & ok)):
+            rendered = np.isin(purpose, RENDERED)
+            for variant, sel in (('', rendered & ok), ('#explicit', ~rendered & ok)):
                 subset = [s for s in shp if variant == '' or s.explicit]
                 if sel.any() and subset:
                     idx = np.flatnonzero(sel)
@@ -317,7 +318,7 @@ class _Reader:
         # representatives first; a group shares their results unless one bound a material inside it
         is_rep = [g is not None and rep_of[g] == e[0][1] for e in entries for g in (e[2],)]
         result = compute([e for e, r in zip(entries, is_rep) if r])
-        private = set()                  # groups whose representative bound a material inside itself or reading primvars
+        private = set()             # groups whose representative bound a material inside itself or reading primvars
         for (key, path, group), r in zip(entries, is_rep):
             if r and key in result:
                 mat = result[key][1]

@@ -136,7 +136,8 @@ def test_emissive_spheres_and_ellipsoids_are_lights_with_their_placement():
     m[:3, :3] *= 2.0
     m[:3, 3] = (1.0, 0.0, 0.0)
     desc = scene([D.Container('/', meshes=[quad(4.0)]), D.Container('/balls', spheres=[ball, egg])],
-                 [D.Material('/floor'), glow], [], D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
+                 [D.Material('/floor'), glow], [],
+                 D.Camera(path='/cam', matrix=look_at((0.0, 3.0, 8.0), (0.0, 0.0, 0.0))),
                  instances=D.Instances(container=np.array([0, 1], np.int32), matrices=np.array([np.eye(4), m])[:, None],
                                        material_set=np.zeros(2, np.int32), material_sets=[()]))
     origin = desc.camera.matrix[:3, 3]
