@@ -246,6 +246,9 @@ class Light:
     ies: Optional[IesProfile] = None
     ies_angle_scale: float = 0.0
     ies_gain: float = 1.0
+    # UsdLux inputs:diffuse and inputs:specular: the light's effect on the diffuse and on the specular lobes of
+    # the surfaces it lights (direct light only: the light as a camera sees it is unchanged)
+    gains: tuple = (1.0, 1.0)
     # For area lights `radiance` is the emitted radiance L after `normalize` (divided by the world-space
     # area when normalize is on); a POINT light's `radiance` is its radiant intensity I, so the irradiance
     # at distance d facing it is I / d**2.  DISTANT: irradiance E on a surface facing it.

@@ -214,7 +214,7 @@ def _light_tables(lights: list[D.Light], origin: np.ndarray):
         if l.type in (D.DOME, D.RECT):
             li_tex[k] = l.texture
         LIGHT_F.write(li_f[k], M=m3.ravel(), RAD=l.radiance, RADIUS=radius, W=l.width, H=l.height,
-                      COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area, LENGTH=l.length)
+                      COS_MAX=np.cos(np.radians(0.5 * l.angle)), AREA=area, LENGTH=l.length, GAIN=l.gains)
         if l.course_intensity is not None and l.type in (D.POINT, D.RECT):
             LIGHT_F.write(li_f[k], COURSE=1.0, COURSE_I=l.course_intensity)
         if l.shaping is not None:

@@ -49,9 +49,11 @@ def describe(desc: SceneDescription) -> str:
     shaped = sum(light.shaping is not None or light.ies is not None for light in desc.lights)
     profiled = sum(light.ies is not None for light in desc.lights)
     imaged = sum(light.texture >= 0 for light in desc.lights)
+    gained = sum(tuple(light.gains) != (1.0, 1.0) for light in desc.lights)
     lines.append(f'  lights: {len(desc.lights)} (' + ', '.join(f'{k} {n}' for k, n in sorted(kinds.items())) + ')'
                  + (f'; shaped {shaped}' + (f' ({profiled} by an IES profile)' if profiled else '') if shaped else '')
-                 + (f'; {imaged} with an image' if imaged else ''))
+                 + (f'; {imaged} with an image' if imaged else '')
+                 + (f'; {gained} with diffuse / specular gains' if gained else ''))
     cam, s = desc.camera, desc.settings
     lines.append(f'  camera: {cam.path} {cam.projection}, focal length {cam.focal_length:g}, aperture '
                  f'{cam.horizontal_aperture:g} x {cam.vertical_aperture:g}, lens radius {cam.lens_radius:g}, '

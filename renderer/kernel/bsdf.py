@@ -192,9 +192,19 @@ def _microfacet(wo, wi, hxy2, hz, alpha, g):
 def evaluate_seen(sb, wi):
     """(f(wo, wi) cos_i rgb, mixture pdf of wi) of the non-delta lobes of sb = `seen_from(b, wo)`; wi a
     local unit vector."""
+    fc, _, pdf = evaluate_parts(sb, wi)
+    return fc, pdf
+
+
+@nb.njit(**_JIT)
+def evaluate_parts(sb, wi):
+    """(f(wo, wi) cos_i rgb, its diffuse part rgb, mixture pdf of wi): `evaluate_seen` and the part of its
+    value that the diffuse lobe gives (Lambert, cool-to-warm; under a clearcoat, as the coat lets it through),
+    the rest being specular (GGX, clearcoat, Blinn-Phong): what a light's `inputs:diffuse` and
+    `inputs:specular` weigh (`lights.lobe_gains`)."""
     b, wo, p = sb.b, sb.wo, sb.p
     if wo[2] <= 0.0 or wi[2] <= 0.0:
-        return BLACK, 0.0
+        return BLACK, BLACK, 0.0
     ci = wi[2]
     fr = 0.0
     fg = 0.0
@@ -223,6 +233,7 @@ def evaluate_seen(sb, wi):
             fr = b.kd[0] / math.pi
             fg = b.kd[1] / math.pi
             fb = b.kd[2] / math.pi
+    dr, dg, db = fr, fg, fb                     # (the diffuse part)
     if F_MODELS & B_GGX and b.alpha > 0.0:
         F = schlick3(b.f0, b.f90, vh)
         s, ps = _microfacet(wo, wi, hxy2, hz, b.alpha, sb.g)
@@ -237,6 +248,7 @@ def evaluate_seen(sb, wi):
         fr = fr * layer + c
         fg = fg * layer + c
         fb = fb * layer + c
+        dr, dg, db = dr * layer, dg * layer, db * layer
         pdf += p[L_CLEARCOAT] * ps
     if F_MODELS & B_PHONG and b.exp >= 0.0:
         cos_h = hz / (2.0 * vh)
@@ -246,7 +258,18 @@ def evaluate_seen(sb, wi):
         fg += b.ks[1] * s
         fb += b.ks[2] * s
         pdf += p[L_PHONG] * dh / (4.0 * vh)
-    return (fr * ci, fg * ci, fb * ci), pdf
+    return (fr * ci, fg * ci, fb * ci), (dr * ci, dg * ci, db * ci), pdf
+
+
+@nb.njit(**_JIT)
+def diffuse_share(sb, wi, delta):
+    """The share (rgb) of the BSDF value of sb towards the sampled wi that its diffuse lobe gives (0 for a
+    delta lobe's direction): how a light that wi finds weighs its `lights.lobe_gains`."""
+    if delta:
+        return BLACK
+    fc, fd, _ = evaluate_parts(sb, wi)
+    return (fd[0] / fc[0] if fc[0] != 0.0 else 0.0, fd[1] / fc[1] if fc[1] != 0.0 else 0.0,
+            fd[2] / fc[2] if fc[2] != 0.0 else 0.0)
 
 
 @nb.njit(**_JIT)

@@ -58,6 +58,8 @@ class Features:
     rect_texture: bool       # a rect light with an image (`lights.rect_radiance`, `rect_sampling.py`)
     shaping: bool            # a light shaped by UsdLux.ShapingAPI (a spotlight's cone, focus: `lights.shaped`)
     ies: bool                # a light shaped by an IES profile (`ies_profiles.py`)
+    light_gains: bool        # a light whose effect on diffuse and specular lobes differs (UsdLux inputs:diffuse,
+                             # inputs:specular other than 1: `lights.lobe_gains`)
     light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
     surface_lights: bool     # path: an emissive surface is a light (host/surface_lights.py)
     textures: bool           # a material with an image texture
@@ -97,10 +99,10 @@ class Features:
 
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
-               lux_lights=True, dome_texture=True, rect_texture=True, shaping=True, ies=True, light_shapes=True,
-               surface_lights=True, textures=True, normal_maps=True, opacity=True, emission=True, clearcoat=True,
-               spheres=True, curves=True, normals=True, uvs=True, colors=True, xf_motion=True, ortho=True, lens=True,
-               time=True)
+               lux_lights=True, dome_texture=True, rect_texture=True, shaping=True, ies=True, light_gains=True,
+               light_shapes=True, surface_lights=True, textures=True, normal_maps=True, opacity=True, emission=True,
+               clearcoat=True, spheres=True, curves=True, normals=True, uvs=True, colors=True, xf_motion=True,
+               ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

@@ -37,11 +37,12 @@ from .. import description as D
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import bsdf_dim, choice_dim, light_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
-                       F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS, F_TEXTURES)
+                       F_LIGHT_GAINS, F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS, F_TEXTURES)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT, STAGE_JIT
-from .lights import escaped_radiance, light_is_area, sample_course_light
-from .materials import (colors, direct, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight, opacity,
-                        preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
+from .lights import (CAMERA_SHARE, SPECULAR_SHARE, escaped_radiance, has_gains, light_is_area, sample_course_light,
+                     split_gained)
+from .materials import (colors, direct, direct_parts, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight,
+                        opacity, preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
 from .normal_maps import mapped_normal
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
@@ -305,7 +306,11 @@ def _direct_light(S, tr, path, sp, depth, state):
             continue
         if dot(wi, sp.ng) <= 0.0:
             continue
-        c = direct(S, sp, wi, E)
+        if F_LIGHT_GAINS and has_gains(S, k):           # (a light's inputs:diffuse and inputs:specular)
+            c, cd = direct_parts(S, sp, wi, E)
+            c = split_gained(S, k, c, cd)
+        else:
+            c = direct(S, sp, wi, E)
         if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
             continue
         if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or sp.model == D.COOL_TO_WARM):
@@ -455,8 +460,8 @@ def trace_path(S, tr, path, ray, max_depth, packet):
             hit = intersect1(tr.scene, tr.f, tr.u, (ox, oy, oz), (dx, dy, dz), 0.0, np.inf, time)
             tr.counts[RAYS_SECONDARY] += 1
         dvec = (float(dx), float(dy), float(dz))
-        if not hit:
-            e = escaped_radiance(S, dvec)
+        if not hit:                        # (past a specular continuation: the domes' inputs:specular)
+            e = escaped_radiance(S, dvec, SPECULAR_SHARE if depth > 0 else CAMERA_SHARE)
             Lr += tr_ * e[0]
             Lg += tg * e[1]
             Lb += tb * e[2]

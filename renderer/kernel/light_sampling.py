@@ -38,7 +38,7 @@ from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHER
                        F_RECT_TEXTURE)
 from .dome_sampling import dome_pdf, sample_dome_texture
 from .light_tree import light_pmf
-from .lights import cylinder_point, dome_radiance, rect_radiance, shaped
+from .lights import cylinder_point, dome_radiance, gained, rect_radiance, shaped
 from .jit import SHADING_INLINE_JIT as _JIT
 from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, lobe_area_pdf, lobe_pdf, lobe_window,
                             rect_coords, round_window)
@@ -508,11 +508,12 @@ def shape_emission(S, L, k, ray, te, prev):
     the path integrator's top level: `host/build.path_top`); zero unless the exact test
     `hit_shape` agrees (the emitting side, inside the disk, this crossing of a sphere: its far side is
     a second hit of the same point; a cylinder's side, not the capsule's round caps).  prev = (p0, n0,
-    bsdf pdf, mis mode, lobe): the vertex the ray left, its normal, the pdf with which its BSDF drew d,
+    bsdf pdf, mis mode, lobe, share): the vertex the ray left, its normal, the pdf with which its BSDF drew d,
     0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe, or BSDF sampling alone),
-    2 = weight 0 (next-event estimation alone), and its `lobe_sampling.glossy_lobe` (`sample_ld_lobe`)."""
+    2 = weight 0 (next-event estimation alone), its `lobe_sampling.glossy_lobe` (`sample_ld_lobe`) and the
+    diffuse share of its BSDF value along d (`lights.gained`; -1: a camera ray)."""
     o, d = ray
-    p0, n0, pb, mode, lobe = prev
+    p0, n0, pb, mode, lobe = prev[0], prev[1], prev[2], prev[3], prev[4]
     if mode == 2:
         return ZERO
     t, pl = hit_shape(S, L, k, o, d, INF, p0)
@@ -525,7 +526,7 @@ def shape_emission(S, L, k, ray, te, prev):
             pl = lobe_pdf(win, plane, lim, p0, q)
     w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
     Le = (w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2])
-    return shaped(S, k, d, _imaged_at(S, k, q, Le))
+    return gained(S, k, prev[5], shaped(S, k, d, _imaged_at(S, k, q, Le)))
 
 
 @nb.njit(**_JIT)
@@ -557,6 +558,7 @@ def escaped_emission(S, L, d, prev):
             Le = (lf[k, LF_RAD] / omega, lf[k, LF_RAD + 1] / omega, lf[k, LF_RAD + 2] / omega)
             pl = 1.0 / omega
         w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
+        Le = gained(S, k, prev[5], Le)
         r += w * Le[0]
         g += w * Le[1]
         b += w * Le[2]

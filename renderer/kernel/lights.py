@@ -19,6 +19,12 @@ cone's soft edge, 0 past its angle, as Pixar's hdEmbree shapes it, and with a fo
 lerp(focusTint, 1, cos(theta)^f), and with an IES profile by the profile's intensity towards the direction
 (`ies_profiles.ies_weight`).  Both integrators apply it to every light sample, and the path integrator to BSDF
 rays that find the light's shape, so that the two estimators agree.
+
+A light's UsdLux `inputs:diffuse` and `inputs:specular` (`lobe_gains`) multiply its effect on the diffuse and
+on the specular lobes of the surfaces it lights: in each light sample, the BSDF's two parts (`bsdf.evaluate_parts`,
+`materials.direct_parts`) are weighted by them; where a BSDF-sampled ray finds the light, its emission is
+weighted by them in the shares the sampled direction's BSDF value had (`gained`).  Both are the same integrand,
+so MIS still combines them.  A camera ray sees the light as it is.
 """
 import math
 
@@ -26,15 +32,17 @@ import numba as nb
 
 from .. import description as D
 from .features import (B_CYLINDER, B_DISTANT, B_DOME, B_PLANAR, B_POINT, B_SPHERE, F_COURSE_LIGHTS, F_DOME_TEXTURE,
-                       F_IES, F_LIGHTS, F_LUX_LIGHTS, F_RECT_TEXTURE, F_SHAPING)
+                       F_IES, F_LIGHT_GAINS, F_LIGHTS, F_LUX_LIGHTS, F_RECT_TEXTURE, F_SHAPING)
 from .ies_profiles import ies_weight
 from .jit import INLINE_JIT, SHADING_INLINE_JIT, SHADING_JIT
-from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_H, LF_IES, LF_LENGTH, LF_M,
-                     LF_RAD, LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
+from .tables import (LF_AREA, LF_CONE, LF_COS_MAX, LF_COURSE, LF_COURSE_I, LF_FOCUS, LF_GAIN, LF_H, LF_IES, LF_LENGTH,
+                     LF_M, LF_RAD, LF_RADIUS, LF_SHAPED, LF_TINT, LF_W)
 from .textures import sample_latlong, sample_texture
 from .vecmath import dot, normalize, onb, sub, to_world
 
 INF = math.inf
+CAMERA_SHARE = (-1.0, -1.0, -1.0)       # the diffuse share (`gained`) of a ray no BSDF drew: a camera ray
+SPECULAR_SHARE = (0.0, 0.0, 0.0)        # of a ray a specular lobe drew (a mirror, a refraction)
 
 
 @nb.njit(**INLINE_JIT)
@@ -48,6 +56,41 @@ def light_is_area(S, k):
     distant light of zero angle.  Delta lights draw no sample: nothing is computed they don't need."""
     t = S.li_type[k]
     return not (t == D.POINT or (t == D.DISTANT and S.li_f[k, LF_COS_MAX] >= 1.0))
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def lobe_gains(S, k):
+    """(diffuse, specular) multipliers of light k's effect on the surfaces it lights (UsdLux inputs:diffuse,
+    inputs:specular); (1, 1) where the scene has none other (`Features.light_gains`)."""
+    if not F_LIGHT_GAINS:
+        return 1.0, 1.0
+    return S.li_f[k, LF_GAIN], S.li_f[k, LF_GAIN + 1]
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def has_gains(S, k):
+    """True if light k's `lobe_gains` are not both 1: its light samples weigh their BSDF's parts apart
+    (elsewhere the BSDF's value is used whole, bit for bit as without the feature)."""
+    gd, gs = lobe_gains(S, k)
+    return gd != 1.0 or gs != 1.0
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def gained(S, k, share, Le):
+    """Radiance Le of light k found by a BSDF-sampled ray whose BSDF value was in the diffuse share `share`
+    (rgb; the rest specular; share[0] < 0: no BSDF, a camera ray), weighted by the light's `lobe_gains`."""
+    gd, gs = lobe_gains(S, k)
+    if (gd == 1.0 and gs == 1.0) or share[0] < 0.0:
+        return Le
+    return (Le[0] * (gs + (gd - gs) * share[0]), Le[1] * (gs + (gd - gs) * share[1]),
+            Le[2] * (gs + (gd - gs) * share[2]))
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def split_gained(S, k, fc, fd):
+    """A light sample's BSDF value fc (rgb) whose diffuse part is fd, weighted by light k's `lobe_gains`."""
+    gd, gs = lobe_gains(S, k)
+    return (gd * fd[0] + gs * (fc[0] - fd[0]), gd * fd[1] + gs * (fc[1] - fd[1]), gd * fd[2] + gs * (fc[2] - fd[2]))
 
 
 @nb.njit(**SHADING_INLINE_JIT)
@@ -286,15 +329,16 @@ def dome_radiance(S, k, wd):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def escaped_radiance(S, wd):
-    """Radiance of a ray that leaves the scene: the dome lights if any, else the background colour."""
+def escaped_radiance(S, wd, share):
+    """Radiance of a ray that leaves the scene: the dome lights if any (weighted by their `lobe_gains` in the
+    diffuse share `share` of the ray's BSDF value: `gained`), else the background colour."""
     r = 0.0
     g = 0.0
     b = 0.0
     found = False
     for k in range(S.li_type.shape[0]):
         if F_LIGHTS & B_DOME and S.li_type[k] == D.DOME:
-            c = dome_radiance(S, k, wd)
+            c = gained(S, k, share, dome_radiance(S, k, wd))
             r += c[0]
             g += c[1]
             b += c[2]

@@ -142,11 +142,20 @@ def smith_g(nl, nv, alpha):
 def direct(S, sp, wi, E):
     """Reflected radiance towards sp.wo from one light sample arriving along wi with E_perp = E at shading
     point sp (a `records.ShadingPoint`; its shading normal on the viewer's side)."""
+    return direct_parts(S, sp, wi, E)[0]
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def direct_parts(S, sp, wi, E):
+    """(`direct`, the part of it its diffuse term gives): Lambert, the preview surface's diffuse, Gooch tone
+    shading; the rest is specular (GGX, clearcoat, the course's highlight): what a light's inputs:diffuse and
+    inputs:specular weigh (`lights.lobe_gains`)."""
     mat, kd, ks, n, wo = sp.mat, sp.kd, sp.ks, sp.ns, sp.wo
     model = S.mat_i[mat, MI_MODEL]
     cos_i = dot(n, wi)
+    zero = (0.0, 0.0, 0.0)
     if cos_i <= 0.0:
-        return (0.0, 0.0, 0.0)
+        return zero, zero
     mf = S.mat_f
     if F_MODELS & B_COOL_TO_WARM and (F_MODELS == B_COOL_TO_WARM or model == D.COOL_TO_WARM):
         # Gooch: blend by (1 + n.l)/2 between k_cool and k_warm derived from kd; the light's grey
@@ -155,13 +164,14 @@ def direct(S, sp, wi, E):
         e = (E[0] + E[1] + E[2]) / 3.0
         cool = (GOOCH_ALPHA * kd[0], GOOCH_ALPHA * kd[1], GOOCH_BLUE + GOOCH_ALPHA * kd[2])
         warm = (GOOCH_YELLOW + GOOCH_BETA * kd[0], GOOCH_YELLOW + GOOCH_BETA * kd[1], GOOCH_BETA * kd[2])
-        return (e * (tw * warm[0] + (1 - tw) * cool[0]), e * (tw * warm[1] + (1 - tw) * cool[1]),
-                e * (tw * warm[2] + (1 - tw) * cool[2]))
+        c = (e * (tw * warm[0] + (1 - tw) * cool[0]), e * (tw * warm[1] + (1 - tw) * cool[1]),
+             e * (tw * warm[2] + (1 - tw) * cool[2]))
+        return c, c
     if F_MODELS & B_PREVIEW_SURFACE and (F_MODELS == B_PREVIEW_SURFACE or model == D.PREVIEW_SURFACE):
         diff, f0, f90, alpha = preview_params(S, mat, kd, ks, sp.rmo)
         nv = dot(n, wo)
         if nv <= 0.0:
-            return (0.0, 0.0, 0.0)
+            return zero, zero
         h = normalize((wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]))
         nh = max(dot(n, h), 0.0)
         vh = max(dot(wo, h), 0.0)
@@ -172,6 +182,8 @@ def direct(S, sp, wi, E):
         r = (diff[0] / math.pi * (1.0 - F0) + dg * F0) * E[0] * cos_i
         g = (diff[1] / math.pi * (1.0 - F1) + dg * F1) * E[1] * cos_i
         b = (diff[2] / math.pi * (1.0 - F2) + dg * F2) * E[2] * cos_i
+        d = (diff[0] / math.pi * (1.0 - F0) * E[0] * cos_i, diff[1] / math.pi * (1.0 - F1) * E[1] * cos_i,
+             diff[2] / math.pi * (1.0 - F2) * E[2] * cos_i)
         cc = scalar(S, mat, sp.st, MF_CLEARCOAT, S_CLEARCOAT)
         if F_CLEARCOAT and cc > 0.0:
             ca = max(scalar(S, mat, sp.st, MF_CC_ROUGH, S_CC_ROUGH), 0.001) ** 2
@@ -180,21 +192,22 @@ def direct(S, sp, wi, E):
             r += spec * E[0] * cos_i
             g += spec * E[1] * cos_i
             b += spec * E[2] * cos_i
-        return (r, g, b)
+        return (r, g, b), d
     m = 0.0
     if model == D.GLAZE or model == D.BLINN_PHONG_MIRRORED:
         m = float(mf[mat, MF_MIRROR])
     if model == D.LAMBERTIAN or model == D.GLAZE or model == D.BLINN_PHONG or model == D.BLINN_PHONG_MIRRORED:
         w = (1.0 - m) * cos_i
         r = (kd[0] * E[0] * w, kd[1] * E[1] * w, kd[2] * E[2] * w)
+        d = r
         if model == D.BLINN_PHONG or model == D.BLINN_PHONG_MIRRORED:
             h = normalize((wi[0] + wo[0], wi[1] + wo[1], wi[2] + wo[2]))
             nh = dot(n, h)
             if nh > 0.0:
                 s = nh ** float(mf[mat, MF_EXP])
                 r = (r[0] + ks[0] * E[0] * s, r[1] + ks[1] * E[1] * s, r[2] + ks[2] * E[2] * s)
-        return r
-    return (0.0, 0.0, 0.0)
+        return r, d
+    return zero, zero
 
 
 @nb.njit(**JIT)

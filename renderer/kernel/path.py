@@ -41,17 +41,18 @@ import numba as nb
 import numpy as np
 
 from .. import description as D
-from .bsdf import BLACK, course_bsdf, evaluate_seen, is_delta, preview_bsdf, sample_seen, seen_from
+from .bsdf import (BLACK, course_bsdf, diffuse_share, evaluate_parts, evaluate_seen, is_delta, preview_bsdf,
+                   sample_seen, seen_from)
 from .camera_stage import camera_rays_into, camera_samples, next_samples
 from .dimensions import P_BSDF, P_CHOICE, P_LIGHT, P_LOBE, P_RR, path_dim
-from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION,
+from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_PREVIEW_SURFACE, F_CLEARCOAT, F_EMISSION, F_LIGHT_GAINS,
                        F_LIGHT_SHAPES, F_MODELS, F_OPACITY, F_SURFACE_LIGHTS)
 from .integrator import (BAD_SAMPLES, N_COUNTERS, PASS_THROUGH_MAX, RAYS_CAMERA, RAYS_SECONDARY, RAYS_SHADOW,
                          RAYS_SHADOW_PACKET, _enqueue_shadow, _flush_shadows, _shading_point, cross_surface)
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
-from .lights import shaped
+from .lights import CAMERA_SHARE, has_gains, shaped, split_gained
 from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params, scalar
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
@@ -140,7 +141,12 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
         Le = shaped(S, k, wi, Le)                        # (a spotlight's cone and focus)
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
-    fc, pb = evaluate_seen(b, (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns)))
+    il = (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns))
+    if F_LIGHT_GAINS and not (F_SURFACE_LIGHTS and k >= L.surface_first) and has_gains(S, k):
+        fc, fd, pb = evaluate_parts(b, il)
+        fc = split_gained(S, k, fc, fd)
+    else:
+        fc, pb = evaluate_seen(b, il)
     if fc[0] == 0.0 and fc[1] == 0.0 and fc[2] == 0.0:
         return BLACK
     pl = pk * pdf
@@ -276,6 +282,13 @@ def hit_emission(S, L, tr, sp, d, time, prev):
     return em
 
 
+@nb.njit(**SHADING_INLINE_JIT)
+def _share(sb, wi, delta):
+    """PrevVertex.share of a BSDF sample: the diffuse share of its value (`bsdf.diffuse_share`) where a light
+    has lobe gains (`lights.gained`); unused elsewhere."""
+    return diffuse_share(sb, wi, delta) if F_LIGHT_GAINS else CAMERA_SHARE
+
+
 @nb.njit(**STAGE_JIT)
 def trace_path(S, L, tr, pp, path, ray, packet):
     """Radiance along the camera ray `ray` of `path` (its sample key, its lane of the camera `packet`,
@@ -291,7 +304,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
     T = (1.0, 1.0, 1.0)
     A = (1.0, 1.0, 1.0)
     es = 1.0                                # 1/eta^2 factors of the throughput, undone for roulette
-    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE, NO_LOBE)
+    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE, NO_LOBE, CAMERA_SHARE)
     after = W_POWER if strategy == MIS else (W_ZERO if strategy == NEE_ONLY else W_ONE)
     depth = 0
     for v in range(max_depth + 1 + PASS_THROUGH_MAX):
@@ -347,7 +360,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         else:
             break
         T = (T[0] * w[0], T[1] * w[1], T[2] * w[2])
-        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, lobe)
+        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, lobe, _share(sb, il, delta))
         d = wi
         depth += 1
         if depth >= RR_DEPTH:

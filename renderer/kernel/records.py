@@ -33,8 +33,9 @@ Per path and bounce
                     its lane in the camera packet (whose light a queued shadow ray adds to) and its glossy
                     lobe (`lobe_sampling.glossy_lobe`, which rect and disk light samples follow)
     PrevVertex      the vertex a BSDF-sampled ray left (path): position, normal, the BSDF's pdf of the ray,
-                    how the light it finds is weighted (power heuristic, 1, or 0), and its glossy lobe
-                    (`lobe_sampling.glossy_lobe`: the lights' light samples drew towards it)
+                    how the light it finds is weighted (power heuristic, 1, or 0), its glossy lobe
+                    (`lobe_sampling.glossy_lobe`: the lights' light samples drew towards it) and the diffuse
+                    share of its BSDF value along the ray (rgb, `bsdf.diffuse_share`; -1 for a camera ray)
     Continuation    the specular bounce a shading point chose: alive, the new ray, throughput, attenuation
 """
 from collections import namedtuple
@@ -54,5 +55,5 @@ Hit = namedtuple('Hit', ['inst_id', 'inst_prim', 'geom_id', 'prim_id', 'u', 'v',
 ShadingPoint = namedtuple('ShadingPoint', ['p', 'ng', 'ns', 'st', 'mat', 'model', 'front', 'wo', 'kd', 'ks', 'rmo'])
 PathState = namedtuple('PathState', ['L', 'T', 'A'])
 Vertex = namedtuple('Vertex', ['p', 'ng', 'ns', 'tt', 'bb', 'wo', 'po', 'time', 'T', 'lane', 'lobe'])
-PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode', 'lobe'])
+PrevVertex = namedtuple('PrevVertex', ['p', 'n', 'pdf', 'mode', 'lobe', 'share'])
 Continuation = namedtuple('Continuation', ['alive', 'o', 'd', 'T', 'A'])

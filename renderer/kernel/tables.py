@@ -72,10 +72,11 @@ S_ROUGH, S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH = 0, 1, 2, 3, 4
 # uses with the course's semantics (lights.sample_course_light); LENGTH: a cylinder light's (along local X);
 # SHAPED: 1 for a light shaped by UsdLux.ShapingAPI, its CONE (the cone's angle and the angle its soft edge starts
 # at, radians), FOCUS and focus TINT (`lights.shaped`); IES: its IES profile's offset in li_ies (-1: none),
-# 1 + angleScale and gain (`ies_profiles.ies_weight`)
+# 1 + angleScale and gain (`ies_profiles.ies_weight`); GAIN: UsdLux inputs:diffuse and inputs:specular, the
+# light's effect on the diffuse and on the specular lobes it lights (`lights.lobe_gains`)
 LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1), ('COS_MAX', 1), ('AREA', 1),
                        ('COURSE', 1), ('COURSE_I', 3), ('LENGTH', 1), ('SHAPED', 1), ('CONE', 2), ('FOCUS', 1),
-                       ('TINT', 3), ('IES', 3)])
+                       ('TINT', 3), ('IES', 3), ('GAIN', 2)])
 TEXTURE_I = Table('TI', [('OFFSET', 1), ('WIDTH', 1), ('HEIGHT', 1), ('CHANNELS', 1), ('WRAP_S', 1),
                          ('WRAP_T', 1)])
 TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4), ('XF', 6)])

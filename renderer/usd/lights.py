@@ -79,10 +79,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
     if abs(np.linalg.det(to_world[:3, :3])) < 1e-300:
         warn(f'{path}: singular light transform; light ignored')
         return None
-    for name, attr in (('diffuse', api.GetDiffuseAttr()), ('specular', api.GetSpecularAttr())):
-        scale = attr.Get(time) if attr and attr.HasAuthoredValue() else None
-        if scale is not None and scale != 1.0:            # (a per-lobe gain: not physical, and MIS needs one emission)
-            warn(f'{path}.inputs:{name}: {scale:g} is not applied; the light lights every lobe alike')
+    gains = _lobe_gains(api, path, time, warn)
     if kind in ('DomeLight', 'DomeLight_1'):
         m = to_world
         if kind == 'DomeLight_1':
@@ -98,7 +95,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
                 texture = load_texture(asset, path, 'repeat', 'clamp', False)
             else:
                 warn(f'{path}: dome texture format "{fmt}" is not supported; constant colour')
-        return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture)
+        return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture, gains=gains)
 
     frame, scale = rigid_frame(to_world)
     light = _physical_light(prim, kind, path, frame, scale, to_world, base, normalize, time, warn)
@@ -108,6 +105,7 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
             # under a mirroring transform the rigid frame's Y is the light's -Y: the image upside down in it
             light.texture = load_texture(asset, path, 'clamp', 'clamp', bool(np.linalg.det(to_world[:3, :3]) < 0))
     if light is not None:
+        light.gains = gains
         light.shaping = _shaping(prim, path, light.type, time, warn)
         _ies(light, prim, time, warn)
     course = prim.GetAttribute('rtc:intensity')
@@ -263,7 +261,23 @@ def _cylinder_light(prim, path, frame, scale, base, normalize, time, warn) -> Op
 # the inputs a light's reading uses (`inputs:colorTemperature` too when enabled): a value that is not finite in any of
 # them drops the light; one in an input it does not read (a shaping cone angle) is left alone, as renderers that do not
 # read it would
-READ_INPUTS = ('intensity', 'exposure', 'color', 'width', 'height', 'radius', 'length', 'angle')
+READ_INPUTS = ('intensity', 'exposure', 'color', 'width', 'height', 'radius', 'length', 'angle', 'diffuse', 'specular')
+
+
+def _lobe_gains(api: UsdLux.LightAPI, path: str, time: Usd.TimeCode, warn: Warn) -> tuple:
+    """(inputs:diffuse, inputs:specular): the multipliers of the light's effect on the diffuse and on the
+    specular response of the surfaces it lights (UsdLux; 1 where unauthored; an input authored with a type
+    that is not a number is warned and read as 1)."""
+    gains = []
+    for attr in (api.GetDiffuseAttr(), api.GetSpecularAttr()):
+        value = attr.Get(time) if attr else None
+        if value is not None and (isinstance(value, (bool, str)) or not isinstance(value, (int, float))):
+            stack = attr.GetPropertyStack(time)              # (its authored type: the schema's says float)
+            kind = str(stack[0].typeName) if stack else type(value).__name__
+            warn(f'{path}.{attr.GetName()}: authored as {kind}, not a number; read as 1')
+            value = None
+        gains.append(1.0 if value is None else float(value))
+    return tuple(gains)
 
 
 def _nonfinite_input(prim: Usd.Prim, time: Usd.TimeCode) -> Optional[tuple[str, str]]:
@@ -318,6 +332,10 @@ def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optio
     if not np.all(np.isfinite(base)):
         warn(f'{prim.GetPath()}: non-finite MeshLightAPI parameters; no emission')
         return None
+    gains = _lobe_gains(api, str(prim.GetPath()), time, warn)
+    if gains != (1.0, 1.0):                 # (its emission is a material's: the path integrator's surface lights)
+        warn(f'{prim.GetPath()}: MeshLightAPI inputs:diffuse / inputs:specular {gains[0]:g} / {gains[1]:g} are '
+             'not applied; the mesh lights every lobe alike')
     mode = str(api.GetMaterialSyncModeAttr().Get(time) or SYNC_MODES[0])
     if mode not in SYNC_MODES:
         warn(f'{prim.GetPath()}: light:materialSyncMode "{mode}" is none of {", ".join(SYNC_MODES)}; '

@@ -189,7 +189,7 @@ def test_a_bsdf_ray_meeting_the_light_is_weighed_by_the_light_samples_pdf(lit, c
         t, pu = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
         assert t == pytest.approx(dist, rel=1e-9)
         pb = pmf * pdf
-        e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pb, 0, lobe))
+        e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pb, 0, lobe, (-1.0, -1.0, -1.0)))
         assert e[0] == pytest.approx(0.5 * S.li_f[0, LF_RAD], rel=1e-6)
         met += 1
     assert met > 50

@@ -150,15 +150,3 @@ def test_the_light_tree_leaves_out_a_spotlight_where_its_cone_cannot_reach():
     theta_o + pi/2 off its axis, it is never chosen; below it, it is."""
     assert tree_leaves_out_above(D.Light(path='/spot', type=D.POINT, matrix=_down((0.0, H, 0.0)), radiance=(8.0,) * 3,
                                          shaping=(30.0, 0.2, 0.0, (0.0, 0.0, 0.0))))
-
-
-def test_a_lights_per_lobe_gain_is_named_not_applied():
-    """UsdLux's inputs:diffuse / inputs:specular (a gain of the light on one kind of lobe) is not physical: not
-    applied, and said so where it is not 1."""
-    st = Usd.Stage.CreateInMemory()
-    light = UsdLux.SphereLight.Define(st, '/L')
-    light.CreateDiffuseAttr(0.5)
-    light.CreateSpecularAttr(1.0)
-    warnings = read_stage(st).warnings
-    assert '/L.inputs:diffuse: 0.5 is not applied; the light lights every lobe alike' in warnings
-    assert not [w for w in warnings if 'inputs:specular' in w]

@@ -202,7 +202,7 @@ def test_a_ray_meeting_an_imaged_rect_gets_the_light_samples_emission_and_pdf(wh
                 continue
             t, _ = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
             assert t == pytest.approx(dist, rel=1e-9)
-            e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pmf * pdf, 0, lobe))
+            e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pmf * pdf, 0, lobe, (-1.0, -1.0, -1.0)))
             assert np.allclose(e, 0.5 * np.asarray(Le), rtol=1e-6, atol=0.0), (e, Le)
             spread.append(Le[0])
             met += 1
