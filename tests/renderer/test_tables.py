@@ -18,9 +18,9 @@ def test_offsets_are_the_packed_declaration():
     assert (T.MI_MODEL, T.MI_DIFFUSE_TEX, T.MI_SPECULAR_TEX, T.MI_EMISSION_TEX, T.MI_VERTEX_COLOR, T.MI_SCALAR_TEX,
             T.MI_SCALAR_CH, T.MI_NORMAL_TEX) == (0, 1, 2, 3, 4, 5, 10, 15)
     assert [T.LF_M, T.LF_RAD, T.LF_RADIUS, T.LF_W, T.LF_H, T.LF_COS_MAX, T.LF_AREA, T.LF_COURSE, T.LF_COURSE_I,
-            T.LF_LENGTH, T.LF_SHAPED, T.LF_CONE, T.LF_FOCUS, T.LF_TINT, T.LF_IES] == \
-        [0, 12, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 28, 29, 32]
-    assert T.LI_F_COLS == 35
+            T.LF_LENGTH, T.LF_SHAPED, T.LF_CONE, T.LF_FOCUS, T.LF_TINT, T.LF_IES, T.LF_GAIN] == \
+        [0, 12, 15, 16, 17, 18, 19, 20, 21, 24, 25, 26, 28, 29, 32, 35]
+    assert T.LI_F_COLS == 37
     assert [T.C_M, T.C_M1, T.C_ORTHO, T.C_HALF_W, T.C_HALF_H, T.C_OFF_X, T.C_OFF_Y, T.C_LENS, T.C_FOCUS, T.C_NEAR,
             T.C_FAR, T.C_MOVING] == [0, 12, *range(24, 34)]
     assert T.CAM_COLS == 34
