@@ -108,7 +108,7 @@ def test_info_on_a_compiled_scene(tmp_path):
 
 def test_info_counts_the_shaped_lights():
     """scenes/lights.usda: its spotlight and its sconce are shaped (ShapingAPI), the sconce by an IES profile; its
-    sign has an image."""
+    sign has an image; its bar has inputs:specular 0."""
     assert_lines(info(REPO / 'scenes' / 'lights.usda'),
-                 'lights: 5 (cylinder 1, rect 2, sphere 2); shaped 2 (1 by an IES profile); 1 with an image',
-                 'warnings: 0')
+                 'lights: 5 (cylinder 1, rect 2, sphere 2); shaped 2 (1 by an IES profile); 1 with an image; '
+                 '1 with diffuse / specular gains', 'warnings: 0')
