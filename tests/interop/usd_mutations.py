@@ -39,7 +39,8 @@ OUTPUTS = ['outputs:rgb', 'outputs:surface', 'outputs:r', 'outputs:result', 'inp
 OPS = ['xformOp:translate:missing', '!resetXformStack!', 'xformOp:bogus', 'xformOp:scale']
 RETYPED = ['radius', 'points', 'intensity', 'inputs:intensity', 'height', 'size', 'widths', 'faceVertexIndices',
            'xformOp:translate', 'primvars:displayColor', 'inputs:radius', 'inputs:width', 'inputs:diffuseColor',
-           'inputs:roughness', 'protoIndices', 'curveVertexCounts', 'inputs:texture:file', 'inputs:color']
+           'inputs:roughness', 'protoIndices', 'curveVertexCounts', 'inputs:texture:file', 'inputs:color',
+           'inputs:diffuse', 'inputs:specular']
 WRONG_VALUES = [(Sdf.ValueTypeNames.String, 'x'), (Sdf.ValueTypeNames.Int, 3),
                 (Sdf.ValueTypeNames.Float3, Gf.Vec3f(1, 2, 3)), (Sdf.ValueTypeNames.FloatArray, Vt.FloatArray([1, 2])),
                 (Sdf.ValueTypeNames.Bool, True), (Sdf.ValueTypeNames.Token, 'bogus')]
