@@ -53,18 +53,31 @@ def _render(desc, integrator, spp=16, **kw):
         return r.render(RenderOptions(**opts)).image.astype(np.float64)[..., :3]
 
 
+MATERIALS = {
+    'plastic': None,                                          # (`_plastic_scene`'s own)
+    'clearcoat': D.Material('/coated', diffuse=(0.5, 0.4, 0.3), roughness=0.4, clearcoat=0.8,
+                            clearcoat_roughness=0.1),
+    'blinn-phong': D.Material('/blinn', model=D.BLINN_PHONG, diffuse=(0.5, 0.4, 0.3), specular=(0.4, 0.4, 0.4),
+                              exponent=30.0),
+}
+
+
 @pytest.mark.parametrize('integrator', ['cook', 'path'])
 @pytest.mark.parametrize('dome', [False, True])
-def test_an_image_is_linear_in_the_gains(integrator, dome):
+@pytest.mark.parametrize('material', list(MATERIALS))
+def test_an_image_is_linear_in_the_gains(integrator, dome, material):
     """image(a, b) = Z + a (image(1, 0) - Z) + b (image(0, 1) - Z), Z = image(0, 0) (the light as the camera sees
-    it), and image(1, 0) + image(0, 1) - Z = the plain light's image: the same samples, so to rounding."""
-    imgs = {g: _render(_plastic_scene(g, dome), integrator) for g in [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0),
-                                                                      (0.3, 2.0), (1.0, 1.0)]}
+    it), and image(1, 0) + image(0, 1) - Z = the plain light's image: the same samples, so to rounding.  Also for
+    a negative gain (a subtractive light), a clearcoat (the layer below it dimmed by the coat) and the course's
+    Blinn-Phong (its highlight specular)."""
+    gains = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.3, 2.0), (-0.5, 0.7), (1.0, 1.0)]
+    imgs = {g: _render(_plastic_scene(g, dome, MATERIALS[material]), integrator) for g in gains}
     z, d, s = imgs[(0.0, 0.0)], imgs[(1.0, 0.0)] - imgs[(0.0, 0.0)], imgs[(0.0, 1.0)] - imgs[(0.0, 0.0)]
     scale = imgs[(1.0, 1.0)].max()
     assert d.mean() > 0.05 * z.mean() and s.mean() > 0.02 * d.mean()     # (both parts matter in this scene)
     assert np.abs(imgs[(1.0, 1.0)] - (z + d + s)).max() < 2e-6 * scale          # (float32 images)
-    assert np.abs(imgs[(0.3, 2.0)] - (z + 0.3 * d + 2.0 * s)).max() < 2e-6 * scale
+    for a, b in gains[3:5]:
+        assert np.abs(imgs[(a, b)] - (z + a * d + b * s)).max() < 2e-6 * scale, (a, b)
     if integrator == 'path':                     # (cook: course semantics; no rect light in view)
         assert z.max() > 0.5 * scale             # the rect light is in view, unchanged by the gains
 
@@ -98,9 +111,10 @@ def test_a_metal_floor_under_a_specular_gain_of_zero_is_black():
 
 
 @pytest.mark.parametrize('dome', [False, True])
-def test_light_and_bsdf_sampling_agree_under_gains(dome):
-    """Direct light of a plastic floor under a rect light (and a dome) with inputs:diffuse 0.3 and
-    inputs:specular 2: the gains are weighed in each light sample by the BSDF's parts and, where a BSDF ray finds
+@pytest.mark.parametrize('sun', [False, True])
+def test_light_and_bsdf_sampling_agree_under_gains(dome, sun):
+    """Direct light of a plastic floor under a rect light (and a dome, a sun: a distant light of 20 degrees) with
+    inputs:diffuse 0.3 and inputs:specular 2: the gains are weighed in each light sample by the BSDF's parts and, where a BSDF ray finds
     the light, by the shares of the value it was drawn with: the three estimators agree.  (With the dome the
     plastic is rougher: light samples of a dome drawn by the cosine find a narrow highlight too rarely for 256
     samples - at roughness 0.3, four seeds give 0.1286-0.1383 against 0.1320.)"""
@@ -110,6 +124,11 @@ def test_light_and_bsdf_sampling_agree_under_gains(dome):
     lights = [light]
     if dome:
         lights.append(D.Light(path='/dome', type=D.DOME, matrix=np.eye(4), radiance=(0.2,) * 3, gains=(0.3, 2.0)))
+    if sun:                               # (emits along its -Z, down and towards the camera: a highlight in view)
+        m = np.eye(4)
+        m[:3, 0], m[:3, 1], m[:3, 2] = (1.0, 0.0, 0.0), (0.0, -0.8, -0.6), (0.0, 0.6, -0.8)
+        lights.append(D.Light(path='/sun', type=D.DISTANT, matrix=m, radiance=(1.0,) * 3, angle=20.0,
+                              gains=(0.3, 2.0)))
     cam = D.Camera(path='/cam', matrix=look_at((0.0, 1.0, 3.0), (0.0, 0.0, -0.5)), focal_length=2.0,
                    horizontal_aperture=2.0, vertical_aperture=2.0)
     desc = scene([D.Container('/', meshes=[quad(8.0)])], [mat], lights, cam, width=24, height=24)
