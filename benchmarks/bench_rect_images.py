@@ -80,23 +80,15 @@ def sign_image(path: Path) -> None:
 
 
 def stage(folder: Path, name: str) -> Path:
-    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdRender, UsdShade
+    from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
     path = folder / f'{name}.usda'
     st = Usd.Stage.CreateNew(str(path))
     UsdGeom.SetStageUpAxis(st, UsdGeom.Tokens.y)
     glossy = name == 'sign'
     floor_mat = _material(st, '/Looks/Floor', (0.5, 0.5, 0.5), 0.25 if glossy else 0.8)         # (plastic or matte)
-    floor = UsdGeom.Mesh.Define(st, '/World/Floor')
-    floor.CreatePointsAttr([(-8, 0, -8), (8, 0, -8), (8, 0, 8), (-8, 0, 8)])
-    floor.CreateFaceVertexCountsAttr([4])
-    floor.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
-    UsdShade.MaterialBindingAPI.Apply(floor.GetPrim()).Bind(floor_mat)
+    floor(st, floor_mat)
     if glossy:
-        ball = UsdGeom.Sphere.Define(st, '/World/Ball')
-        ball.CreateRadiusAttr(0.8)
-        ball.AddTranslateOp().Set(Gf.Vec3d(0.6, 0.8, 0.3))
-        UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(
-            _material(st, '/Looks/Gold', (1.0, 0.78, 0.34), 0.3, 1.0))
+        gold_ball(st, 0.6)
         sign_image(folder / 'sign.exr')
         light = UsdLux.RectLight.Define(st, '/World/Sign')
         light.CreateWidthAttr(3.0)
@@ -127,13 +119,38 @@ def stage(folder: Path, name: str) -> Path:
         light.CreateTextureFileAttr(Sdf.AssetPath('window.exr'))
         light.AddTransformOp().Set(_aimed((-2.0, 3.0, -3.0), (0.0, 0.0, 0.0)))
         UsdLux.DomeLight.Define(st, '/World/Sky').CreateIntensityAttr(0.05)
+    finish(st)
+    return path
+
+
+def gold_ball(st, x: float) -> None:
+    """A rough gold sphere of radius 0.8 resting on the floor at (x, 0.3)."""
+    from pxr import Gf, UsdGeom, UsdShade
+    ball = UsdGeom.Sphere.Define(st, '/World/Ball')
+    ball.CreateRadiusAttr(0.8)
+    ball.AddTranslateOp().Set(Gf.Vec3d(x, 0.8, 0.3))
+    UsdShade.MaterialBindingAPI.Apply(ball.GetPrim()).Bind(_material(st, '/Looks/Gold', (1.0, 0.78, 0.34), 0.3, 1.0))
+
+
+def floor(st, material) -> None:
+    """A 16 x 16 floor at y = 0 bound to `material`."""
+    from pxr import UsdGeom, UsdShade
+    mesh = UsdGeom.Mesh.Define(st, '/World/Floor')
+    mesh.CreatePointsAttr([(-8, 0, -8), (8, 0, -8), (8, 0, 8), (-8, 0, 8)])
+    mesh.CreateFaceVertexCountsAttr([4])
+    mesh.CreateFaceVertexIndicesAttr([0, 3, 2, 1])
+    UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
+
+
+def finish(st) -> None:
+    """The benchmark stages' camera (3 up, 7 back, looking 20 degrees down) and render settings (160 x 120); saved."""
+    from pxr import Gf, UsdGeom, UsdRender
     cam = UsdGeom.Camera.Define(st, '/World/Camera')
     cam.AddTranslateOp().Set(Gf.Vec3d(0, 3.0, 7.0))
     cam.AddRotateXOp().Set(-20.0)
     cam.CreateFocalLengthAttr(28.0)
     UsdRender.Settings.Define(st, '/Render/Settings').CreateResolutionAttr(Gf.Vec2i(160, 120))
     st.Save()
-    return path
 
 
 def uniform_renderer(desc, threads: int):
@@ -169,13 +186,37 @@ def renderers(usd: Path, threads: int):
             'uniform': uniform_renderer(read_stage(str(usd)), threads)}
 
 
-def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+def arguments(doc: str):
+    """The command line of the path benchmarks that alternate renderers in one process (--spp, --ref-spp, --rounds,
+    --threads)."""
+    ap = argparse.ArgumentParser(description=doc.split('\n')[0])
     ap.add_argument('--spp', type=int, default=16)
     ap.add_argument('--ref-spp', type=int, default=1024)
     ap.add_argument('--rounds', type=int, default=3)
     ap.add_argument('--threads', type=int, default=2)
-    a = ap.parse_args()
+    return ap.parse_args()
+
+
+def alternate(rs: dict, refs: dict, spp: int, rounds: int):
+    """Render each renderer of `rs` at `spp` (path, seeds 1, 2, ...) `rounds` times, alternating their order round by
+    round: ({name: median relative RMSE against refs[name]}, {name: median seconds a sample}, {name: [seconds a
+    sample, a round]})."""
+    from rtc.renderer.options import RenderOptions
+    norms = {n: np.sqrt(np.mean(refs[n] ** 2)) for n in rs}
+    err = {n: [] for n in rs}
+    secs = {n: [] for n in rs}
+    for k in range(rounds):
+        order = list(rs) if k % 2 == 0 else list(rs)[::-1]
+        for n in order:
+            t0 = time.perf_counter()
+            img = rs[n].render(RenderOptions(spp=spp, seed=1 + k, integrator='path')).image
+            secs[n].append((time.perf_counter() - t0) / spp)
+            err[n].append(float(np.sqrt(np.mean((img - refs[n]) ** 2)) / norms[n]))
+    return {n: statistics.median(err[n]) for n in rs}, {n: statistics.median(secs[n]) for n in rs}, secs
+
+
+def main() -> None:
+    a = arguments(__doc__)
     from rtc.renderer.options import RenderOptions
     with tempfile.TemporaryDirectory() as tmp:
         for name in ('window', 'sign', 'panels'):
@@ -183,18 +224,7 @@ def main() -> None:
             rs['image'].render(RenderOptions(spp=1, integrator='path'))
             ref = rs['image'].render(RenderOptions(spp=a.ref_spp, seed=1000, integrator='path')).image.astype(
                 np.float64)
-            norm = np.sqrt(np.mean(ref ** 2))
-            err = {n: [] for n in rs}
-            secs = {n: [] for n in rs}
-            for k in range(a.rounds):
-                order = list(rs) if k % 2 == 0 else list(rs)[::-1]
-                for n in order:
-                    t0 = time.perf_counter()
-                    img = rs[n].render(RenderOptions(spp=a.spp, seed=1 + k, integrator='path')).image
-                    secs[n].append((time.perf_counter() - t0) / a.spp)
-                    err[n].append(float(np.sqrt(np.mean((img - ref) ** 2)) / norm))
-            e = {n: statistics.median(err[n]) for n in rs}
-            t = {n: statistics.median(secs[n]) for n in rs}
+            e, t, _ = alternate(rs, {n: ref for n in rs}, a.spp, a.rounds)
             print(f'{name}: relRMSE image {e["image"]:.4f} uniform {e["uniform"]:.4f} '
                   f'({e["image"] / e["uniform"]:.3f}x);'
                   f' time a sample {1e3 * t["image"]:.1f} / {1e3 * t["uniform"]:.1f} ms '
