@@ -180,6 +180,9 @@ class Material:
     use_specular_workflow: bool = False     # UsdPreviewSurface
     clearcoat: float = 0.0
     clearcoat_roughness: float = 0.01
+    # a MeshLightAPI mesh's inputs:diffuse and inputs:specular: its emission's effect on the diffuse and on the
+    # specular lobes of the surfaces it lights (as a light's, `Light.gains`)
+    light_gains: tuple = (1.0, 1.0)
     diffuse_texture: int = -1               # index into SceneDescription.textures (multiplies diffuse)
     specular_texture: int = -1
     emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)

@@ -168,7 +168,8 @@ def _material_tables(materials: list[D.Material]):
         MATERIAL_F.write(mat_f[k], KD=m.diffuse, KS=m.specular, EXP=m.exponent, MIRROR=m.mirror_coef,
                          ROUGH=m.roughness, IOR=m.ior, ATTEN=m.attenuation, EMIT=m.emission, METAL=m.metallic,
                          OPACITY=m.opacity, SPECWF=1.0 if m.use_specular_workflow else 0.0,
-                         CLEARCOAT=m.clearcoat, CC_ROUGH=m.clearcoat_roughness, OPACITY_CUT=m.opacity_threshold)
+                         CLEARCOAT=m.clearcoat, CC_ROUGH=m.clearcoat_roughness, OPACITY_CUT=m.opacity_threshold,
+                         GAIN=m.light_gains)
     return mat_i, mat_f
 
 

@@ -15,7 +15,7 @@ import numpy as np
 from .. import description as D
 from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
-                             LF_COURSE, LF_GAIN, LF_IES, LF_SHAPED, MF_CLEARCOAT, MF_EMIT, MF_OPACITY,
+                             LF_COURSE, LF_GAIN, LF_IES, LF_SHAPED, MF_CLEARCOAT, MF_EMIT, MF_GAIN, MF_OPACITY,
                              MF_OPACITY_CUT, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX,
                              MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY)
 
@@ -61,7 +61,8 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         dome_texture=bool(np.any(data.li_tex[domes] >= 0)), rect_texture=bool(np.any(data.li_tex[rects] >= 0)),
         shaping=bool(np.any(data.li_f[rows, LF_SHAPED] != 0.0)),
         ies=bool(np.any(data.li_f[rows, LF_IES] >= 0.0)),
-        light_gains=bool(np.any(data.li_f[rows, LF_GAIN:LF_GAIN + 2] != 1.0)),
+        light_gains=bool(np.any(data.li_f[rows, LF_GAIN:LF_GAIN + 2] != 1.0)
+                         or np.any(mf[:, MF_GAIN:MF_GAIN + 2] != 1.0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
         textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)

@@ -122,11 +122,12 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
     """(emission of the light that gprim slot `slot` (gprim g) is at each placement row of `rows`, mask of
     the rows where it is a light), with the material resolution of `kernel/shapes.surface`.  A see-through
     UsdPreviewSurface (opacity a < 1: rays find it with probability a, `path.trace_path`) emits a times its
-    emission on average: the light's.  The emission rows are (R, 6): the radiance (times its emissiveColor
+    emission on average: the light's.  The emission rows are (R, 7): the radiance (times its emissiveColor
     texture where it has one, column 3, else -1: the kernel looks the texture up at each point), the
     luminance of its mean over the surface (the light tree's phi; a textured one's from its texture's
-    mean value, `means`: {texture: mean}, filled as needed), and the material whose opacity texture multiplies
-    the emission at each point (column 5, -1: none; the tree's phi leaves it out: an upper bound)."""
+    mean value, `means`: {texture: mean}, filled as needed), the material whose opacity texture multiplies
+    the emission at each point (column 5, -1: none; the tree's phi leaves it out: an upper bound), and the material
+    (column 6: its MeshLightAPI lobe gains, MF_GAIN)."""
     base = data.in_matset[rows]
     mat = np.full(len(rows), -1, np.int64)
     has = base >= 0
@@ -145,7 +146,8 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
     lum = (np.abs(emit) * mean) @ _LUM
     # an opacity texture: the kernel multiplies the emission by the material's opacity at each point (column 5)
     cut = (data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0) & (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE)
-    return np.column_stack([emit, tex, lum, np.where(cut, mat, -1)]), (lum > 0.0) & np.all(np.isfinite(emit), 1)
+    return (np.column_stack([emit, tex, lum, np.where(cut, mat, -1), mat]),
+            (lum > 0.0) & np.all(np.isfinite(emit), 1))
 
 
 def _bounds(tri: np.ndarray, phi: np.ndarray) -> list:
@@ -330,7 +332,8 @@ def _ball_rows(data, balls: list, first: int):
              AXES=np.where(ball[:, None], 0.0, a.reshape(-1, 9)))
         ids = [_texture_ids(data, row, slot, emit[k]) for k, row in enumerate(rows)]
         SURFACE_LIGHT_I.write_rows(i, ELLIPSOID=~ball, EMISSION_TEX=np.repeat([d['EMISSION_TEX'] for d in ids], n),
-             GPRIM=np.repeat([d['GPRIM'] for d in ids], n), OPACITY_MAT=np.repeat([d['OPACITY_MAT'] for d in ids], n))
+             GPRIM=np.repeat([d['GPRIM'] for d in ids], n), OPACITY_MAT=np.repeat([d['OPACITY_MAT'] for d in ids], n),
+             MAT=np.repeat([d['MAT'] for d in ids], n))
         extent = np.where(ball[:, None], r[:, None], np.sqrt((a * a).sum(2)))
         projected = np.pi * r ** 2                           # an ellipsoid's largest projected area: pi s1 s2
         if not ball.all():
@@ -423,7 +426,7 @@ def _texture_ids(data, row: int, slot: int, emit: np.ndarray) -> dict:
     """The SLI fields of a light's emissiveColor texture (-1: none) and of its gprim (for the texture
     coordinates of a point on it: its st primvar)."""
     return {'EMISSION_TEX': int(emit[3]), 'GPRIM': int(data.pr_gp_start[data.in_proto[row]]) + slot,
-            'OPACITY_MAT': int(emit[5])}
+            'OPACITY_MAT': int(emit[5]), 'MAT': int(emit[6])}
 
 
 def _curve_rows(data, tubes: list, first: int):
@@ -441,7 +444,7 @@ def _curve_rows(data, tubes: list, first: int):
         i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
         SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], AREA=area, CTRL=q.reshape(-1, 16))
         SURFACE_LIGHT_I.write_rows(i, CURVE=np.ones(R * n, np.int64), EMISSION_TEX=np.full(R * n, -1, np.int64),
-                                   OPACITY_MAT=np.full(R * n, -1, np.int64),
+                                   OPACITY_MAT=np.full(R * n, -1, np.int64), MAT=e[:, 6].astype(np.int64),
                                    GPRIM=np.repeat([_texture_ids(data, row, slot, emit[k])['GPRIM']
                                                     for k, row in enumerate(rows)], n))
         reach = np.abs(q[:, :, 3]).max(1)[:, None]

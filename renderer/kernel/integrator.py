@@ -39,10 +39,10 @@ from .dimensions import bsdf_dim, choice_dim, light_dim
 from .features import (B_COOL_TO_WARM, B_DIELECTRIC, B_MIRRORING, B_PREVIEW_SURFACE, B_SOBOL, F_COLORS, F_EMISSION,
                        F_LIGHT_GAINS, F_MODELS, F_NORMAL_MAPS, F_OPACITY, F_SAMPLERS, F_TEXTURES)
 from .jit import INLINE_JIT, KERNEL_JIT, SHADING_INLINE_JIT, SHADING_JIT, STAGE_JIT
-from .lights import (CAMERA_SHARE, SPECULAR_SHARE, escaped_radiance, has_gains, light_is_area, sample_course_light,
-                     split_gained)
-from .materials import (colors, direct, direct_parts, emission, fresnel_dielectric, has_diffuse_lobe, mirror_weight,
-                        opacity, preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
+from .lights import (CAMERA_SHARE, SPECULAR_SHARE, escaped_radiance, gained_by, light_is_area, lobe_gains,
+                     sample_course_light, split_by)
+from .materials import (colors, direct, direct_parts, emission, fresnel_dielectric, has_diffuse_lobe, material_gains,
+                        mirror_weight, opacity, preview_params, refract, sample_ggx_h, scalars, smith_g, _schlick)
 from .normal_maps import mapped_normal
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
@@ -306,9 +306,10 @@ def _direct_light(S, tr, path, sp, depth, state):
             continue
         if dot(wi, sp.ng) <= 0.0:
             continue
-        if F_LIGHT_GAINS and has_gains(S, k):           # (a light's inputs:diffuse and inputs:specular)
+        gains = lobe_gains(S, k)
+        if F_LIGHT_GAINS and (gains[0] != 1.0 or gains[1] != 1.0):      # (inputs:diffuse and inputs:specular)
             c, cd = direct_parts(S, sp, wi, E)
-            c = split_gained(S, k, c, cd)
+            c = split_by(gains, c, cd)
         else:
             c = direct(S, sp, wi, E)
         if c[0] == 0.0 and c[1] == 0.0 and c[2] == 0.0:
@@ -483,6 +484,8 @@ def trace_path(S, tr, path, ray, max_depth, packet):
                     continue
             if F_EMISSION:
                 em = emission(S, mat, sp.st)
+                if F_LIGHT_GAINS:           # (a MeshLightAPI mesh's gains; past a continuation: specular)
+                    em = gained_by(material_gains(S, mat), SPECULAR_SHARE if depth > 0 else CAMERA_SHARE, em)
                 Lr += tr_ * em[0]
                 Lg += tg * em[1]
                 Lb += tb * em[2]

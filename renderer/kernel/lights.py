@@ -68,18 +68,10 @@ def lobe_gains(S, k):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def has_gains(S, k):
-    """True if light k's `lobe_gains` are not both 1: its light samples weigh their BSDF's parts apart
-    (elsewhere the BSDF's value is used whole, bit for bit as without the feature)."""
-    gd, gs = lobe_gains(S, k)
-    return gd != 1.0 or gs != 1.0
-
-
-@nb.njit(**SHADING_INLINE_JIT)
-def gained(S, k, share, Le):
-    """Radiance Le of light k found by a BSDF-sampled ray whose BSDF value was in the diffuse share `share`
-    (rgb; the rest specular; share[0] < 0: no BSDF, a camera ray), weighted by the light's `lobe_gains`."""
-    gd, gs = lobe_gains(S, k)
+def gained_by(gains, share, Le):
+    """Radiance Le of a light with lobe gains `gains` = (diffuse, specular) found by a BSDF-sampled ray whose BSDF
+    value was in the diffuse share `share` (rgb; the rest specular; share[0] < 0: no BSDF, a camera ray)."""
+    gd, gs = gains
     if (gd == 1.0 and gs == 1.0) or share[0] < 0.0:
         return Le
     return (Le[0] * (gs + (gd - gs) * share[0]), Le[1] * (gs + (gd - gs) * share[1]),
@@ -87,9 +79,15 @@ def gained(S, k, share, Le):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def split_gained(S, k, fc, fd):
-    """A light sample's BSDF value fc (rgb) whose diffuse part is fd, weighted by light k's `lobe_gains`."""
-    gd, gs = lobe_gains(S, k)
+def gained(S, k, share, Le):
+    """`gained_by` light k's `lobe_gains`."""
+    return gained_by(lobe_gains(S, k), share, Le)
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def split_by(gains, fc, fd):
+    """A light sample's BSDF value fc (rgb) whose diffuse part is fd, weighted by lobe gains `gains`."""
+    gd, gs = gains
     return (gd * fd[0] + gs * (fc[0] - fd[0]), gd * fd[1] + gs * (fc[1] - fd[1]), gd * fd[2] + gs * (fc[2] - fd[2]))
 
 

@@ -21,9 +21,9 @@ import math
 import numba as nb
 
 from .. import description as D
-from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_MODELS, F_TEXTURES
+from .features import B_COOL_TO_WARM, B_PREVIEW_SURFACE, F_CLEARCOAT, F_LIGHT_GAINS, F_MODELS, F_TEXTURES
 from .jit import JIT, SHADING_INLINE_JIT
-from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
+from .tables import (MF_CC_ROUGH, MF_CLEARCOAT, MF_EMIT, MF_EXP, MF_GAIN, MF_IOR, MF_KD, MF_KS, MF_METAL, MF_MIRROR,
                      MF_OPACITY, MF_OPACITY_CUT, MF_ROUGH, MF_SPECWF, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL,
                      MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX, S_CC_ROUGH, S_CLEARCOAT, S_METAL, S_OPACITY, S_ROUGH)
 from .textures import sample_channel, sample_texture
@@ -76,6 +76,15 @@ def opacity(S, mat, st):
     if cut > 0.0:
         a = 1.0 if a >= cut else 0.0
     return a
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def material_gains(S, mat):
+    """(diffuse, specular) multipliers of material mat's emission's effect on the surfaces it lights (a MeshLightAPI
+    mesh's inputs:diffuse and inputs:specular, `lights.gained_by`); (1, 1) where the scene has none other."""
+    if not F_LIGHT_GAINS:
+        return 1.0, 1.0
+    return float(S.mat_f[mat, MF_GAIN]), float(S.mat_f[mat, MF_GAIN + 1])
 
 
 @nb.njit(**SHADING_INLINE_JIT)

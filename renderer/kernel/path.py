@@ -52,15 +52,16 @@ from .integrator import (BAD_SAMPLES, N_COUNTERS, PASS_THROUGH_MAX, RAYS_CAMERA,
 from .jit import KERNEL_JIT, SHADING_INLINE_JIT, STAGE_JIT
 from .light_sampling import escaped_emission, sample_ld_lobe, shape_emission, shape_mask
 from .light_tree import NO_SAMPLE, choose_lights, lone_light
-from .lights import CAMERA_SHARE, has_gains, shaped, split_gained
-from .materials import GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, preview_params, scalar
+from .lights import CAMERA_SHARE, gained_by, lobe_gains, shaped, split_by
+from .materials import (GOOCH_ALPHA, GOOCH_BETA, GOOCH_BLUE, GOOCH_YELLOW, emission, material_gains, preview_params,
+                        scalar)
 from .ray_record import record_if
 from .lobe_sampling import NO_LOBE, glossy_lobe
 from .records import Path, PrevVertex, Ray, SampleKey, Tracer, Vertex
 from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sample_2d
 from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_ROUGH,
-                     S_CC_ROUGH, S_CLEARCOAT)
+                     S_CC_ROUGH, S_CLEARCOAT, SLI_MAT)
 from .tiles import claim_tile
 from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
                     intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
@@ -142,9 +143,10 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     if not pdf > 0.0 or dot(wi, vtx.ng) <= 0.0:
         return BLACK
     il = (dot(wi, vtx.tt), dot(wi, vtx.bb), dot(wi, vtx.ns))
-    if F_LIGHT_GAINS and not (F_SURFACE_LIGHTS and k >= L.surface_first) and has_gains(S, k):
+    gains = _gains(S, L, k)
+    if F_LIGHT_GAINS and (gains[0] != 1.0 or gains[1] != 1.0):      # (its effect on each kind of lobe)
         fc, fd, pb = evaluate_parts(b, il)
-        fc = split_gained(S, k, fc, fd)
+        fc = split_by(gains, fc, fd)
     else:
         fc, pb = evaluate_seen(b, il)
     if fc[0] == 0.0 and fc[1] == 0.0 and fc[2] == 0.0:
@@ -166,6 +168,15 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
         return BLACK
     s = vis * w / pl
     return fc[0] * Le[0] * s, fc[1] * Le[1] * s, fc[2] * Le[2] * s
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def _gains(S, L, k):
+    """The lobe gains of light k: a UsdLux light's inputs:diffuse and inputs:specular (`lights.lobe_gains`), an
+    emissive surface's its material's (a MeshLightAPI mesh's, `materials.material_gains`)."""
+    if F_SURFACE_LIGHTS and k >= L.surface_first:
+        return material_gains(S, L.sl_i[k - L.surface_first, SLI_MAT])
+    return lobe_gains(S, k)
 
 
 @nb.njit(**STAGE_JIT)
@@ -277,6 +288,8 @@ def hit_emission(S, L, tr, sp, d, time, prev):
     among emissive surfaces MIS-weighted (`surface_lights.surface_emission`), the others (and every
     emissive surface when the scene has no surface light) with weight 1."""
     em = emission(S, sp.mat, sp.st)
+    if F_LIGHT_GAINS:                       # (a MeshLightAPI mesh's gains: as `lights.gained` weighs a light's)
+        em = gained_by(material_gains(S, sp.mat), prev[5], em)
     if F_SURFACE_LIGHTS and L.n_surface > 0:
         return surface_emission(S, L, tr, em, (sp.p, sp.ng, d, time, sp.st), prev)
     return em

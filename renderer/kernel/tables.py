@@ -62,7 +62,7 @@ class Table:
 
 MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROUGH', 1), ('IOR', 1),
                           ('ATTEN', 3), ('EMIT', 3), ('METAL', 1), ('OPACITY', 1), ('SPECWF', 1),
-                          ('CLEARCOAT', 1), ('CC_ROUGH', 1), ('OPACITY_CUT', 1)])
+                          ('CLEARCOAT', 1), ('CC_ROUGH', 1), ('OPACITY_CUT', 1), ('GAIN', 2)])
 MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1), ('EMISSION_TEX', 1),
                           ('VERTEX_COLOR', 1), ('SCALAR_TEX', 5), ('SCALAR_CH', 5),
                           ('NORMAL_TEX', 1)])
@@ -104,11 +104,13 @@ LIGHT_TREE = Table('T', [('C', 3), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O'
 # ellipsoid, and for a moving placement 1 and its instance (geometry id, index) in the top-level scene
 # (int64: its triangles, centre, radius and AREA are the object's, placed at a ray's time by Embree's matrix);
 # a curve segment's world Bezier control points (x, y, z, radius: CTRL, 4 x 4 row-major) and CURVE 1; the material
-# whose opacity texture the emission is multiplied by at each point (OPACITY_MAT, -1: none)
+# whose opacity texture the emission is multiplied by at each point (OPACITY_MAT, -1: none); the material that emits
+# (MAT: its MF_GAIN, a MeshLightAPI's inputs:diffuse and inputs:specular)
 SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1), ('CENTER', 3), ('RADIUS', 1), ('AXES', 9), ('INV', 9),
                                 ('CTRL', 16)])
 SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1), ('MOVING', 1), ('INST', 1),
-                                ('INST_PRIM', 1), ('EMISSION_TEX', 1), ('GPRIM', 1), ('CURVE', 1), ('OPACITY_MAT', 1)])
+                                ('INST_PRIM', 1), ('EMISSION_TEX', 1), ('GPRIM', 1), ('CURVE', 1), ('OPACITY_MAT', 1),
+                                ('MAT', 1)])
 
 TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE, SURFACE_LIGHT_F, SURFACE_LIGHT_I)
 for _t in TABLES:

@@ -310,13 +310,13 @@ SYNC_MODES = ('materialGlowTintsLight', 'independent', 'noMaterialResponse')
 
 
 def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optional[tuple]:
-    """(radiance, materialSyncMode) of a Mesh with UsdLux MeshLightAPI (or of a GeomSubset of one),
+    """(radiance, materialSyncMode, lobe gains) of a Mesh with UsdLux MeshLightAPI (or of a GeomSubset of one),
     None for any other prim: L as for the other lights, divided by the mesh's world-space area (at this
-    prim's placement) when ``normalize`` is on, and how the bound material combines with it
+    prim's placement) when ``normalize`` is on, how the bound material combines with it
     (`light:materialSyncMode`, MeshLightAPI's fallback ``materialGlowTintsLight``; an unknown token is
-    warned and read as the fallback).  The renderer gives the mesh a material emitting it
-    (`MaterialTable.emitting`): emissive surfaces are lights of the path integrator
-    (`host/surface_lights.py`)."""
+    warned and read as the fallback), and its inputs:diffuse and inputs:specular (`_lobe_gains`).  The renderer
+    gives the mesh a material emitting it (`MaterialTable.emitting`): emissive surfaces are lights of the path
+    integrator (`host/surface_lights.py`)."""
     if prim.IsA(UsdGeom.Subset):
         prim = prim.GetParent()
     if not prim or not prim.HasAPI(UsdLux.MeshLightAPI):
@@ -333,15 +333,12 @@ def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optio
         warn(f'{prim.GetPath()}: non-finite MeshLightAPI parameters; no emission')
         return None
     gains = _lobe_gains(api, str(prim.GetPath()), time, warn)
-    if gains != (1.0, 1.0):                 # (its emission is a material's: the path integrator's surface lights)
-        warn(f'{prim.GetPath()}: MeshLightAPI inputs:diffuse / inputs:specular {gains[0]:g} / {gains[1]:g} are '
-             'not applied; the mesh lights every lobe alike')
     mode = str(api.GetMaterialSyncModeAttr().Get(time) or SYNC_MODES[0])
     if mode not in SYNC_MODES:
         warn(f'{prim.GetPath()}: light:materialSyncMode "{mode}" is none of {", ".join(SYNC_MODES)}; '
              f'read as {SYNC_MODES[0]}')
         mode = SYNC_MODES[0]
-    return _rgb(base), mode
+    return _rgb(base), mode, gains
 
 
 def _mesh_area(prim: Usd.Prim, time: Usd.TimeCode) -> float:

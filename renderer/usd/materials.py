@@ -218,21 +218,23 @@ class MaterialTable:
             self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0))
         return self._index[key]
 
-    def emitting(self, index: int, radiance: tuple, mode: str = 'independent') -> int:
+    def emitting(self, index: int, radiance: tuple, mode: str = 'independent', gains: tuple = (1.0, 1.0)) -> int:
         """Index of the material of a mesh with UsdLux MeshLightAPI whose bound material is `index`,
         emitting the light's `radiance` (`lights.mesh_light_radiance`) as `light:materialSyncMode` says:
         ``materialGlowTintsLight``: the radiance times the material's emissiveColor (its glow tints the
         light; a material that does not glow leaves it untinted), ``independent``: the radiance alone;
         both keep the material's reflection.  ``noMaterialResponse``: the radiance alone on a surface
         that reflects and transmits nothing (as if no material were bound).  Every ray sees the same
-        emission (the one UsdLux gives light rays), so light and BSDF sampling estimate one light."""
-        key = ('emitting', index, radiance, mode)
+        emission (the one UsdLux gives light rays), so light and BSDF sampling estimate one light.  `gains`: the
+        light's inputs:diffuse and inputs:specular (`Material.light_gains`)."""
+        key = ('emitting', index, radiance, mode, gains)
         if key not in self._index:
             base = self.materials[index]
             label = f'{base.path} <MeshLightAPI {mode}>'
             if mode == 'noMaterialResponse':
                 # a black Lambertian: UsdPreviewSurface always reflects at grazing angles (white F90)
-                emitter = Material(path=label, model=LAMBERTIAN, diffuse=(0.0, 0.0, 0.0), emission=radiance)
+                emitter = Material(path=label, model=LAMBERTIAN, diffuse=(0.0, 0.0, 0.0), emission=radiance,
+                                   light_gains=gains)
                 self._index[key] = self._add(emitter)
                 return self._index[key]
             texture = -1                         # (an emissiveColor texture tints it where the glow does)
@@ -240,7 +242,7 @@ class MaterialTable:
                 radiance = tuple(float(r * g) for r, g in zip(radiance, base.emission))
                 texture = base.emission_texture
             self._index[key] = self._add(dataclasses.replace(base, path=label, emission=radiance,
-                                                             emission_texture=texture))
+                                                             emission_texture=texture, light_gains=gains))
         return self._index[key]
 
     def _add(self, material: Material) -> int:

@@ -137,6 +137,43 @@ def test_light_and_bsdf_sampling_agree_under_gains(dome, sun):
     assert nee == pytest.approx(mis, rel=0.01) and bsdf == pytest.approx(mis, rel=0.015), (nee, bsdf, mis)
 
 
+def _glow_scene(gains, floor=None):
+    """The plastic floor (or `floor`) and ball lit by a glowing card (a MeshLightAPI mesh's material: emission with
+    lobe gains; an emissive surface is a light of the path integrator), in view of the camera."""
+    card = D.Mesh(path='/card', points=np.array([[-0.6, 0.4, -3.0], [0.6, 0.4, -3.0], [0.6, 1.4, -3.0],
+                                                 [-0.6, 1.4, -3.0]], np.float64),
+                  triangles=np.array([[0, 1, 2], [0, 2, 3]], np.int32), material=1)    # (upright, facing +Z)
+    glow = D.Material('/glow', diffuse=(0.0, 0.0, 0.0), emission=(6.0, 5.0, 4.0), light_gains=gains)
+    desc = _plastic_scene((1.0, 1.0), material=floor)
+    desc.containers[0].meshes.append(card)
+    desc.materials.append(glow)
+    desc.lights = []
+    return desc
+
+
+@pytest.mark.parametrize('integrator', ['cook', 'path'])
+def test_a_mesh_lights_gains_are_linear(integrator):
+    """A MeshLightAPI mesh's gains, as a light's: the image is linear in them (the same identity as above); in path
+    its light samples and the BSDF rays that find it weigh them, in cook the mirror reflections that find it (cook
+    does not light surfaces by emission: its floor is a course mirror, which shows the card by its specular gain)."""
+    gains = [(0.0, 0.0), (1.0, 0.0), (0.0, 1.0), (0.3, 2.0), (1.0, 1.0)]
+    floor = D.Material('/mirror', model=D.MIRROR, specular=(0.8, 0.8, 0.8)) if integrator == 'cook' else None
+    imgs = {g: _render(_glow_scene(g, floor), integrator) for g in gains}
+    z, d, s = imgs[(0.0, 0.0)], imgs[(1.0, 0.0)] - imgs[(0.0, 0.0)], imgs[(0.0, 1.0)] - imgs[(0.0, 0.0)]
+    scale = imgs[(1.0, 1.0)].max()
+    assert s.mean() > 0.01 * z.mean() and (d.mean() == 0.0 if integrator == 'cook' else d.mean() > 0.01 * z.mean())
+    assert np.abs(imgs[(1.0, 1.0)] - (z + d + s)).max() < 2e-6 * scale
+    assert np.abs(imgs[(0.3, 2.0)] - (z + 0.3 * d + 2.0 * s)).max() < 2e-6 * scale
+
+
+def test_light_and_bsdf_sampling_agree_for_a_mesh_lights_gains():
+    """The glowing card with gains (0.3, 2) over the plastic floor: light samples of the emissive surface and the
+    BSDF rays that hit it weigh the gains alike (direct light; the three estimators agree)."""
+    nee, bsdf, mis = estimator_means(_glow_scene((0.3, 2.0)), nee_spp=256, bsdf_spp=2048, mis_spp=256)
+    assert mis > 1e-3
+    assert nee == pytest.approx(mis, rel=0.01) and bsdf == pytest.approx(mis, rel=0.015), (nee, bsdf, mis)
+
+
 def _stage(tmp_path, text):
     path = tmp_path / 'gains.usda'
     path.write_text('#usda 1.0\n(\n    upAxis = "Y"\n)\n' + text)
@@ -146,7 +183,7 @@ def _stage(tmp_path, text):
 def test_the_stage_reader_reads_the_gains(tmp_path):
     """inputs:diffuse / inputs:specular authored: read, no warning; unauthored: 1; not finite: the light is
     left out, warned (as any non-finite light input); authored with a type that is not a number: warned, 1;
-    on a MeshLightAPI mesh: warned (its emission is its material's)."""
+    on a MeshLightAPI mesh: the gains of the material that emits its light."""
     text = '''
 def RectLight "A" {
     float inputs:diffuse = 0.25
@@ -177,8 +214,9 @@ def Mesh "Glow" ( prepend apiSchemas = ["MeshLightAPI"] ) {
     text = '\n'.join(desc.warnings)
     assert '/Bad.inputs:diffuse: nan is not a finite number; light ignored' in text
     assert '/Odd.inputs:specular: authored as string, not a number; read as 1' in text
-    assert '/Glow: MeshLightAPI inputs:diffuse / inputs:specular 0.5 / 1 are not applied' in text
-    assert not any('/A' in w or '/C' in w for w in desc.warnings)
+    assert not any('/A' in w or '/C' in w or '/Glow' in w for w in desc.warnings)
+    glow = [m for m in desc.materials if 'MeshLightAPI' in m.path]
+    assert len(glow) == 1 and tuple(glow[0].light_gains) == (0.5, 1.0)
 
 
 def test_gains_authored_with_pxr_render_through_the_stage_reader(tmp_path):

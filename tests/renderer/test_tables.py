@@ -12,9 +12,9 @@ def test_offsets_are_the_packed_declaration():
     """Offsets are the running sums of the declared widths (the layout of rtc 7f10cee, whose
     hand-numbered columns these replace)."""
     assert [T.MF_KD, T.MF_KS, T.MF_EXP, T.MF_MIRROR, T.MF_ROUGH, T.MF_IOR, T.MF_ATTEN, T.MF_EMIT, T.MF_METAL,
-            T.MF_OPACITY, T.MF_SPECWF, T.MF_CLEARCOAT, T.MF_CC_ROUGH, T.MF_OPACITY_CUT] == [0, 3, 6, 7, 8, 9, 10, 13, 16,
-                                                                                      17, 18, 19, 20, 21]
-    assert T.MAT_F_COLS == 22 and T.MAT_I_COLS == 16
+            T.MF_OPACITY, T.MF_SPECWF, T.MF_CLEARCOAT, T.MF_CC_ROUGH, T.MF_OPACITY_CUT, T.MF_GAIN] == \
+        [0, 3, 6, 7, 8, 9, 10, 13, 16, 17, 18, 19, 20, 21, 22]
+    assert T.MAT_F_COLS == 24 and T.MAT_I_COLS == 16
     assert (T.MI_MODEL, T.MI_DIFFUSE_TEX, T.MI_SPECULAR_TEX, T.MI_EMISSION_TEX, T.MI_VERTEX_COLOR, T.MI_SCALAR_TEX,
             T.MI_SCALAR_CH, T.MI_NORMAL_TEX) == (0, 1, 2, 3, 4, 5, 10, 15)
     assert [T.LF_M, T.LF_RAD, T.LF_RADIUS, T.LF_W, T.LF_H, T.LF_COS_MAX, T.LF_AREA, T.LF_COURSE, T.LF_COURSE_I,
