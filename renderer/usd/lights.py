@@ -271,7 +271,7 @@ def _lobe_gains(api: UsdLux.LightAPI, path: str, time: Usd.TimeCode, warn: Warn)
     gains = []
     for attr in (api.GetDiffuseAttr(), api.GetSpecularAttr()):
         value = attr.Get(time) if attr else None
-        if value is not None and (isinstance(value, (bool, str)) or not isinstance(value, (int, float))):
+        if value is not None and (isinstance(value, bool) or not isinstance(value, (int, float))):
             stack = attr.GetPropertyStack(time)              # (its authored type: the schema's says float)
             kind = str(stack[0].typeName) if stack else type(value).__name__
             warn(f'{path}.{attr.GetName()}: authored as {kind}, not a number; read as 1')
@@ -329,10 +329,10 @@ def mesh_light_radiance(prim: Usd.Prim, time: Usd.TimeCode, warn: Warn) -> Optio
             warn(f'{prim.GetPath()}: MeshLightAPI on a mesh of zero area; no emission')
             return None
         base = base / area
-    if not np.all(np.isfinite(base)):
+    gains = _lobe_gains(api, str(prim.GetPath()), time, warn)
+    if not (np.all(np.isfinite(base)) and np.all(np.isfinite(gains))):
         warn(f'{prim.GetPath()}: non-finite MeshLightAPI parameters; no emission')
         return None
-    gains = _lobe_gains(api, str(prim.GetPath()), time, warn)
     mode = str(api.GetMaterialSyncModeAttr().Get(time) or SYNC_MODES[0])
     if mode not in SYNC_MODES:
         warn(f'{prim.GetPath()}: light:materialSyncMode "{mode}" is none of {", ".join(SYNC_MODES)}; '

@@ -183,7 +183,7 @@ def _stage(tmp_path, text):
 def test_the_stage_reader_reads_the_gains(tmp_path):
     """inputs:diffuse / inputs:specular authored: read, no warning; unauthored: 1; not finite: the light is
     left out, warned (as any non-finite light input); authored with a type that is not a number: warned, 1;
-    on a MeshLightAPI mesh: the gains of the material that emits its light."""
+    on a MeshLightAPI mesh: the gains of the material that emits its light (not finite: no emission, warned)."""
     text = '''
 def RectLight "A" {
     float inputs:diffuse = 0.25
@@ -206,6 +206,12 @@ def Mesh "Glow" ( prepend apiSchemas = ["MeshLightAPI"] ) {
     point3f[] points = [(0, 0, 0), (1, 0, 0), (0, 1, 0)]
     float inputs:diffuse = 0.5
 }
+def Mesh "BadGlow" ( prepend apiSchemas = ["MeshLightAPI"] ) {
+    int[] faceVertexCounts = [3]
+    int[] faceVertexIndices = [0, 1, 2]
+    point3f[] points = [(0, 0, 2), (1, 0, 2), (0, 1, 2)]
+    float inputs:specular = inf
+}
 '''
     desc = read_stage(_stage(tmp_path, text), options=RenderOptions(width=8, height=8, spp=1))
     gains = {light.path: tuple(light.gains) for light in desc.lights}
@@ -216,7 +222,8 @@ def Mesh "Glow" ( prepend apiSchemas = ["MeshLightAPI"] ) {
     assert '/Odd.inputs:specular: authored as string, not a number; read as 1' in text
     assert not any('/A' in w or '/C' in w or '/Glow' in w for w in desc.warnings)
     glow = [m for m in desc.materials if 'MeshLightAPI' in m.path]
-    assert len(glow) == 1 and tuple(glow[0].light_gains) == (0.5, 1.0)
+    assert len(glow) == 1 and tuple(glow[0].light_gains) == (0.5, 1.0)      # (BadGlow: no emission, warned)
+    assert '/BadGlow: non-finite MeshLightAPI parameters; no emission' in text
 
 
 def test_gains_authored_with_pxr_render_through_the_stage_reader(tmp_path):
