@@ -114,10 +114,10 @@ def test_a_metal_floor_under_a_specular_gain_of_zero_is_black():
 @pytest.mark.parametrize('sun', [False, True])
 def test_light_and_bsdf_sampling_agree_under_gains(dome, sun):
     """Direct light of a plastic floor under a rect light (and a dome, a sun: a distant light of 20 degrees) with
-    inputs:diffuse 0.3 and inputs:specular 2: the gains are weighed in each light sample by the BSDF's parts and, where a BSDF ray finds
-    the light, by the shares of the value it was drawn with: the three estimators agree.  (With the dome the
-    plastic is rougher: light samples of a dome drawn by the cosine find a narrow highlight too rarely for 256
-    samples - at roughness 0.3, four seeds give 0.1286-0.1383 against 0.1320.)"""
+    inputs:diffuse 0.3 and inputs:specular 2: the gains are weighed in each light sample by the BSDF's parts and,
+    where a BSDF ray finds the light, by the shares of the value it was drawn with: the three estimators agree.
+    (With the dome the plastic is rougher: light samples of a dome drawn by the cosine find a narrow highlight too
+    rarely for 256 samples - at roughness 0.3, four seeds give 0.1286-0.1383 against 0.1320.)"""
     mat = D.Material('/plastic', diffuse=(0.5, 0.4, 0.3), roughness=0.5 if dome else 0.3)
     light = rect_light((0.3, 1.0, 0.0), 1.2, 0.8, (2.0, 2.0, 2.0))
     light.gains = (0.3, 2.0)
