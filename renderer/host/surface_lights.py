@@ -48,18 +48,20 @@ The light tree's phi uses the texture's mean absolute value (`texture_mean`).  A
 cut-out, `opacityThreshold`) multiplies the emission at each point in the same way (`SLI_OPACITY_MAT`): light samples
 see a(x) E(x), the average of what rays, which find the point with probability a(x), see.
 
-A cubic curves gprim (UsdGeom.BasisCurves drawn as Embree's round curves) is a light a segment at each
-placement, a placement's segments consecutive lights (a hit's light: its gprim slot's first plus its primitive,
-as a cloud's balls): its world control points and radii (CTRL), sampled in u by bins weighted by what each sends the
-shading point and uniformly in angle around the tube's circle, the density per unit area f(u) / (2 pi J) at the
-point, J the tube's area element there (`kernel/curves.tube_point`, `kernel/surface_lights._curve_point`), for
-light samples and hits alike.  Its tree bounds: the control points' box grown by
-its largest radius, phi its largest projected area (about A / pi) times its luminance.  Only placements by a
-similarity (the world tube is the tube of the world curve) that do not move, and untextured emission and opacity.
+A curves gprim (UsdGeom.BasisCurves drawn as Embree's round curves) is a light a segment at each placement, a
+placement's segments consecutive lights (a hit's light: its gprim slot's first plus its primitive, as a cloud's
+balls): its world control points and radii (CTRL), sampled in u by bins weighted by what each sends the shading point
+and uniformly in angle around the tube's circle, the density per unit area f(u) / (2 pi J) at the point, J the
+tube's area element there (`kernel/curves.tube_point`, `kernel/surface_lights._curve_point`), for light samples and
+hits alike.  A linear segment (CURVE_LINEAR) is the side of its cone, stored as the straight Bezier whose tube of
+circles that side is (`cone_sides`); its round ends and joints are found by BSDF rays alone, their emission with
+weight 1.  Its tree bounds: the control points' box grown by its largest radius, phi its largest projected area
+(about A / pi) times its luminance.  Only placements by a similarity (the world tube is the tube of the world curve)
+that do not move, and untextured emission and opacity.
 
 Not lights (their emission is still added where a ray hits them, with weight 1): materials whose
-emission has no luminance; emissive linear curves and ribbons, curves placed by a non-uniform scale or moving, or
-of a textured emission (warned).
+emission has no luminance; emissive ribbons (Embree tessellates them: no light sample can draw the point a ray finds
+on one), curves placed by a non-uniform scale or moving, or of a textured emission (warned).
 """
 from __future__ import annotations
 
@@ -68,7 +70,7 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT,
+from ..kernel.tables import (CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT,
                              MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SURFACE_LIGHT_F, SURFACE_LIGHT_I,
                              TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
 from .features import constant_opacity
@@ -184,7 +186,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
     static = np.all(xf == xf[:, :1], axis=(1, 2, 3)) if n_rows else np.zeros(0, bool)
     ends = np.append(data.pr_gp_start[1:], len(data.gp_kind))
     groups, balls, movers = [], [], []  # (rows, slot, world triangles (R, n, 3, 3) | placed balls, emission)
-    tubes = []                          # (rows, slot, world control points (R, n, 4, 4), emission)
+    tubes = []                          # (rows, slot, world control points (R, n, 4, 4), emission, linear)
     means = {}
     n_balls = _ball_counts(data)
     n_segments = _segment_counts(data)
@@ -238,7 +240,7 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
         warn(f'{n_tubes} emissive curve segments (placements of emissive curves) are lights of the path integrator: '
              f'more than {MAX_SEGMENTS}, they cost memory (~500 bytes each) and build time')
     if glowing_curves and warn is not None:
-        warn(f'{glowing_curves} emissive curves gprims (linear curves, ribbons, textured emission, or moving or '
+        warn(f'{glowing_curves} emissive curves gprims (ribbons, textured emission, or moving or '
              'non-uniformly scaled placements): the rays that meet them see their emission, but they are not lights '
              'the path integrator samples (their light is noisier than an emissive mesh\'s)')
     return _tables(data, groups, balls, first, movers, tubes)
@@ -246,13 +248,14 @@ def surface_lights(data, first: int, warn=None) -> SurfaceLights:
 
 def _curve_lights(data, rows: np.ndarray, slot: int, g: int, means: dict, static: np.ndarray, n: int):
     """([(rows, slot, world control points (R, n, 4, 4), emission)] of the placements of curves gprim g (n segments)
-    whose segments are lights, 1 if some other placement emits but is no light else 0).  Lights: cubic round tubes
-    (not linear curves, not ribbons) of an untextured emission, placed still by a similarity (a uniform scale: the
-    world tube is then the tube of the world curve and radius, which `kernel/surface_lights` samples)."""
+    whose segments are lights, 1 if some other placement emits but is no light else 0).  Lights: round tubes (cubic
+    segments, linear segments' cone sides; not ribbons) of an untextured emission, placed still by a similarity (a
+    uniform scale: the world tube is then the tube of the world curve and radius, which `kernel/surface_lights`
+    samples)."""
     emit, ok = _emitting(data, rows, slot, g, means)
     m = data.in_xf[rows, 0]
     scale = _similarity(m)
-    tube = not data.gp_flags[g] & (GP_LINEAR | GP_RIBBON)
+    tube = not data.gp_flags[g] & GP_RIBBON
     lit = ok & static[rows] & (scale > 0.0) & (emit[:, 3] < 0) & (emit[:, 5] < 0) & tube
     off = int(data.gp_off[g])
     ctrl = np.asarray(data.crv[off:off + n], np.float64)
@@ -261,8 +264,37 @@ def _curve_lights(data, rows: np.ndarray, slot: int, g: int, means: dict, static
         world = np.empty((int(lit.sum()), n, 4, 4))
         world[..., :3] = np.einsum('rij,nvj->rnvi', m[lit][:, :, :3], ctrl[..., :3]) + m[lit][:, None, None, :, 3]
         world[..., 3] = ctrl[None, ..., 3] * scale[lit][:, None, None]
-        placed.append((rows[lit], slot, world, emit[lit]))
+        if data.gp_flags[g] & GP_LINEAR:
+            world = cone_sides(world)
+        placed.append((rows[lit], slot, world, emit[lit], bool(data.gp_flags[g] & GP_LINEAR)))
     return placed, int((ok & ~lit).any())
+
+
+def cone_sides(ends: np.ndarray) -> np.ndarray:
+    """The side of each linear segment (..., 4, 4: its ends x, y, z, radius in rows 0 and 1) as the straight Bezier
+    segment (controls at thirds) whose tube of circles it is.  Embree's round linear segment is the envelope of the
+    spheres of radius r(u) = r0 + u (r1 - r0) centred on c(u) = p0 + u L d: the cone tangent to its end spheres, and
+    the parts of those spheres beyond it.  The envelope's circle of sphere u lies where (x - c(u)) . d = -r(u) s,
+    s = (r1 - r0) / L, with radius r(u) sqrt(1 - s^2): the tube of circles of the line from p0 - r0 s d to
+    p1 - r1 s d, radii r0 sqrt(1 - s^2) to r1 sqrt(1 - s^2).  A segment with no side (L = 0, or |s| >= 1: one end's
+    sphere holds the other's) becomes a point of radius 0: no area, never drawn."""
+    p0, p1 = ends[..., 0, :3], ends[..., 1, :3]
+    r0, r1 = ends[..., 0, 3], ends[..., 1, 3]
+    length = np.linalg.norm(p1 - p0, axis=-1)
+    ok = length > 0.0
+    safe = np.where(ok, length, 1.0)
+    d = (p1 - p0) / safe[..., None]
+    s = (r1 - r0) / safe
+    ok &= np.abs(s) < 1.0
+    k = np.sqrt(np.maximum(1.0 - s * s, 0.0))
+    a, b = p0 - (r0 * s)[..., None] * d, p1 - (r1 * s)[..., None] * d
+    t = np.arange(4) / 3.0
+    out = np.empty(ends.shape[:-2] + (4, 4))
+    out[..., :3] = (1.0 - t)[:, None] * a[..., None, :] + t[:, None] * b[..., None, :]
+    out[..., 3] = ((1.0 - t) * (r0 * k)[..., None] + t * (r1 * k)[..., None])
+    out[~ok] = 0.0
+    out[~ok, :, :3] = p0[~ok][:, None, :]
+    return out
 
 
 def tube_areas(q: np.ndarray, nodes: int = 8, angles: int = 16) -> np.ndarray:
@@ -435,7 +467,7 @@ def _curve_rows(data, tubes: list, first: int):
     primitive (`kernel/surface_lights.light_of_hit`); the tree sees a segment's control points' box grown by its
     largest radius (the tube lies inside it) and its largest projected area, about A / pi."""
     sl_f, sl_i, bounds, row_lights = [], [], [], []
-    for rows, slot, world, emit in tubes:
+    for rows, slot, world, emit, linear in tubes:
         R, n = world.shape[:2]
         q = world.reshape(-1, 4, 4)
         e = np.repeat(emit, n, axis=0)
@@ -443,8 +475,9 @@ def _curve_rows(data, tubes: list, first: int):
         f = np.zeros((R * n, SURFACE_LIGHT_F.width))
         i = np.zeros((R * n, SURFACE_LIGHT_I.width), np.int64)
         SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], AREA=area, CTRL=q.reshape(-1, 16))
-        SURFACE_LIGHT_I.write_rows(i, CURVE=np.ones(R * n, np.int64), EMISSION_TEX=np.full(R * n, -1, np.int64),
-                                   OPACITY_MAT=np.full(R * n, -1, np.int64), MAT=e[:, 6].astype(np.int64),
+        SURFACE_LIGHT_I.write_rows(i, CURVE=np.full(R * n, CURVE_LINEAR if linear else CURVE_CUBIC, np.int64),
+                                   EMISSION_TEX=np.full(R * n, -1, np.int64), OPACITY_MAT=np.full(R * n, -1, np.int64),
+                                   MAT=e[:, 6].astype(np.int64),
                                    GPRIM=np.repeat([_texture_ids(data, row, slot, emit[k])['GPRIM']
                                                     for k, row in enumerate(rows)], n))
         reach = np.abs(q[:, :, 3]).max(1)[:, None]

@@ -20,7 +20,9 @@ A curve segment (CURVE) is sampled in u by CURVE_BINS bins weighted by what each
 circle's circumference times the curve's speed over the squared distance, at the bin's middle), uniformly within
 the bin, and uniformly in angle around its circle (`curves.tube_point`): its density per unit area at the point is
 f(u) / (2 pi J), J the tube's area element there, which a hit finds again from its point, Embree's u and the vertex
-it came from (`_curve_area_at`): 2 pi J / f(u) takes A's place above.
+it came from (`_curve_area_at`): 2 pi J / f(u) takes A's place above.  A linear segment (CURVE_LINEAR) is stored as
+the straight Bezier whose tube of circles is its cone's side: a hit finds u from its place along that axis, and a hit
+on a round end or joint, which no light sample draws, keeps its emission with weight 1 in every strategy (`_side_u`).
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -35,8 +37,8 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .materials import opacity
 from .shapes import sphere_st, triangle_st
-from .tables import (GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS,
-                     SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID, SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST,
+from .tables import (CURVE_LINEAR, GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_CTRL, SLF_INV, SLF_RAD,
+                     SLF_RADIUS, SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID, SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST,
                      SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
 from .textures import sample_texture
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
@@ -203,6 +205,26 @@ def _curve_area_at(L, j, p0, p, u):
     return 2.0 * math.pi * tube_area_element(q0, q1, q2, q3, u, p) / _bin_density(q0, q1, q2, q3, p0, u)
 
 
+SIDE_TOLERANCE = 1e-3
+
+
+@nb.njit(**_JIT)
+def _side_u(L, j, p):
+    """u of the point p of linear curve light j if p is on its cone's side (stored as the straight Bezier whose tube
+    of circles the side is: u is p's place along its axis), else -1: a point of a round end or joint, which no light
+    sample draws (its emission keeps weight 1).  Not Embree's u: a sphere's parameter, which is not the axis's."""
+    q0, _, _, q3 = _control(L, j)
+    axis = (q3[0] - q0[0], q3[1] - q0[1], q3[2] - q0[2])
+    x = (p[0] - q0[0], p[1] - q0[1], p[2] - q0[2])
+    len2 = dot(axis, axis)
+    u = dot(x, axis) / len2 if len2 > 0.0 else -1.0
+    if not 0.0 < u < 1.0:
+        return -1.0
+    r = q0[3] + u * (q3[3] - q0[3])
+    y = (x[0] - u * axis[0], x[1] - u * axis[1], x[2] - u * axis[2])
+    return u if abs(math.sqrt(dot(y, y)) - r) <= SIDE_TOLERANCE * r else -1.0
+
+
 @nb.njit(**_JIT)
 def _object_dir(L, j, q):
     """The object-space direction from the centre of the sphere or ellipsoid of static surface light j to
@@ -366,6 +388,12 @@ def surface_emission(S, L, tr, Le, hit, prev):
     k = light_of_hit(S, L, tr.u)
     if k < 0:
         return Le
+    j = k - L.surface_first
+    u = hit[4][0]
+    if F_CURVES and L.sl_i[j, SLI_CURVE] == CURVE_LINEAR:
+        u = _side_u(L, j, hit[0])
+        if u < 0.0:
+            return Le
     p0, n0, pb, mode = prev[0], prev[1], prev[2], prev[3]
     if mode == 2:
         return ZERO
@@ -376,13 +404,12 @@ def surface_emission(S, L, tr, Le, hit, prev):
     cos_l = abs(dot(ng, d))
     if not cos_l > 0.0:
         return Le
-    j = k - L.surface_first
     if F_XF_MOTION and L.sl_i[j, SLI_MOVING] != 0:
         area = _moving_area(L, tr, j, time, ng)
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         area = _ellipsoid_area_at(L, j, p)
     elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
-        area = _curve_area_at(L, j, p0, p, hit[4][0])
+        area = _curve_area_at(L, j, p0, p, u)
         if not area > 0.0:                          # (a point of no area: no light sample draws it)
             return Le
     else:

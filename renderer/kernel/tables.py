@@ -103,9 +103,11 @@ LIGHT_TREE = Table('T', [('C', 3), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O'
 # (float64); its first world triangle and their count, 0 for a sphere or an ellipsoid, 1 for an
 # ellipsoid, and for a moving placement 1 and its instance (geometry id, index) in the top-level scene
 # (int64: its triangles, centre, radius and AREA are the object's, placed at a ray's time by Embree's matrix);
-# a curve segment's world Bezier control points (x, y, z, radius: CTRL, 4 x 4 row-major) and CURVE 1; the material
+# a curve segment's world Bezier control points (x, y, z, radius: CTRL, 4 x 4 row-major) and CURVE 1 (CURVE_CUBIC;
+# CURVE_LINEAR: a linear segment's cone side as a straight Bezier, `host/surface_lights.cone_sides`); the material
 # whose opacity texture the emission is multiplied by at each point (OPACITY_MAT, -1: none); the material that emits
 # (MAT: its MF_GAIN, a MeshLightAPI's inputs:diffuse and inputs:specular)
+CURVE_CUBIC, CURVE_LINEAR = 1, 2
 SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1), ('CENTER', 3), ('RADIUS', 1), ('AXES', 9), ('INV', 9),
                                 ('CTRL', 16)])
 SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1), ('MOVING', 1), ('INST', 1),
@@ -134,5 +136,5 @@ __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE
            'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_LEVELS', 'TREE_SLOTS', 'TABLES', 'S_ROUGH', 'S_METAL',
            'S_OPACITY', 'S_CLEARCOAT', 'S_CC_ROUGH', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_CURVES',
-           'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON',
+           'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON', 'CURVE_CUBIC', 'CURVE_LINEAR',
            'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

@@ -1,8 +1,9 @@
-"""Emissive cubic curves are lights of the path integrator (`host/surface_lights.py`, `kernel/surface_lights.py`):
-a light a segment at each placement, sampled uniformly in u along it and in angle around its circle, whose density
-per unit area is 1 / (2 pi J), J the area element of the tube of circles (`kernel/curves.tube_point`).  Light
-sampling alone, BSDF sampling alone and MIS converge to one image; the area element against closed forms and an
-independent quadrature."""
+"""Emissive curves are lights of the path integrator (`host/surface_lights.py`, `kernel/surface_lights.py`): a
+light a segment at each placement, sampled in u along it and uniformly in angle around its circle, whose density
+per unit area is f(u) / (2 pi J), J the area element of the tube of circles (`kernel/curves.tube_point`); a linear
+segment's side (a cone) as the tube of circles of a straight Bezier, its round ends and joints found by BSDF rays
+alone.  Light sampling alone, BSDF sampling alone and MIS converge to one image; the area element against closed
+forms and an independent quadrature; a linear side's points on Embree's own surface."""
 import math
 
 import numpy as np
@@ -11,12 +12,14 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 from rtc.renderer.host.render import RenderOptions, Renderer
 from rtc.renderer.host.build import build
-from rtc.renderer.host.surface_lights import surface_lights, tube_areas
+from rtc.renderer import description as D
+from rtc.renderer.host.surface_lights import cone_sides, surface_lights, tube_areas
 from rtc.renderer.kernel.curves import tube_area_element, tube_point
 from rtc.renderer.kernel.surface_lights import CURVE_BINS, _bin_density
-from rtc.renderer.kernel.tables import SLI_CURVE
+from rtc.renderer.kernel.tables import CURVE_CUBIC, CURVE_LINEAR, SLI_CURVE
 from rtc.renderer.kernel.vecmath import turn
 from rtc.renderer.usd.stage import read_stage
+from tests.renderer.test_curves import _cast
 
 WAVY = np.array([[-1.5, 0.8, 0.0, 0.05], [-0.5, 1.6, 0.5, 0.3], [0.5, 0.3, -0.5, 0.15], [1.5, 1.0, 0.2, 0.4]])
 
@@ -156,14 +159,20 @@ def test_light_sampling_and_bsdf_sampling_find_the_same_curve_lights(specular):
     """Two placements (one scaled 0.7), three segments each: light k of a hit is its placement's first plus the
     segment (a wrong one, or a wrong density, would bias the MIS image away from BSDF sampling's); with a specular
     layer, the tube also lights itself (its concave side sees the rest of it)."""
-    desc = read_stage(_stage(((1.0, (0.0, 0.0, 0.0)), (0.7, (-1.0, 0.2, -1.5))), specular=specular))
+    _three_estimators_agree(read_stage(_stage(((1.0, (0.0, 0.0, 0.0)), (0.7, (-1.0, 0.2, -1.5))), specular=specular)),
+                            [CURVE_CUBIC] * 6)
+
+
+def _three_estimators_agree(desc, kinds):
+    """The stage reads without a warning, its surface lights are curve segments of `kinds` (SLI_CURVE), and light
+    sampling alone, BSDF sampling alone and MIS agree within 1 % on the mean of its image."""
     assert desc.warnings == []
     built = build(desc)
     try:
         tables = surface_lights(built.data, 0)
     finally:
         built.close()
-    assert len(tables.sl_f) == 6 and list(tables.sl_i[:, SLI_CURVE]) == [1] * 6
+    assert list(tables.sl_i[:, SLI_CURVE]) == kinds
     with Renderer(desc) as r:
         nee, bsdf, mis = (_mean(r, s, spp) for s, spp in (('nee', 256), ('bsdf', 1024), ('mis', 256)))
     floor = mis.mean()
@@ -180,3 +189,61 @@ def test_each_segment_is_its_own_light():
     with Renderer(desc) as r:
         bsdf, mis = (_mean(r, s, spp) for s, spp in (('bsdf', 1024), ('mis', 256)))
     assert bsdf.mean() == pytest.approx(mis.mean(), rel=0.01), (bsdf.mean(), mis.mean())
+
+
+# --------------------------------------------------------------------------- linear curves: their cones' sides
+def test_a_linear_segments_side_drawn_by_light_samples_lies_on_embrees_cone():
+    """A segment of radius 0.4 tapering to 0.15 over a length 2, placed by a rotation: the straight Bezier of its side
+    (`cone_sides`) puts every point a light sample draws on the surface Embree intersects, with its normal (rays cast
+    back along the normal from outside hit the point), and no light sample on the spheres of its ends; a segment with
+    no side (one end's sphere holding the other's) has no area."""
+    c, s = math.cos(0.6), math.sin(0.6)
+    ends = np.array([[[-c, -s, 0.2, 0.4], [c, s, 0.2, 0.15]]])
+    side = cone_sides(ends)[0]
+    q = tuple(tuple(float(x) for x in row) for row in side)
+    rng = np.random.default_rng(11)
+    pts, nrm = [], []
+    for u, a in rng.random((1500, 2)):
+        p, n, jac = tube_point(*q, u, turn(a))
+        assert jac > 0.0
+        pts.append(p)
+        nrm.append(n)
+    pts, nrm = np.array(pts), np.array(nrm)
+    curve = D.Curves('/c', vertices=np.array([[-1.0, 0, 0, 0.4], [1.0, 0, 0, 0.15]]), segments=np.array([0]),
+                     linear=True, material=0, flags=np.zeros(1, np.uint8))
+    m = np.array([[c, -s, 0, 0], [s, c, 0, 0], [0, 0, 1, 0.2], [0, 0, 0, 1]])
+    hit, P, N = _cast([curve], pts + 3.0 * nrm, -nrm, matrix=m)
+    assert hit.all()
+    np.testing.assert_allclose(P, pts, atol=2e-5)
+    np.testing.assert_allclose(N, nrm, atol=2e-5)
+    axis = np.array([c, s, 0.0])
+    foot = (pts - (0.0, 0.0, 0.2)) @ axis                  # the side ends before the end spheres' caps begin
+    assert foot.min() > -1.0 + 0.4 * 0.125 - 1e-9 and foot.max() < 1.0 + 0.15 * 0.125 + 1e-9
+    assert tube_areas(cone_sides(np.array([[[0, 0, 0, 1.0], [0.5, 0, 0, 0.2]]])))[0] == 0.0
+    assert tube_areas(cone_sides(np.array([[[0, 0, 0, 0.3], [0, 0, 0, 0.3]]])))[0] == 0.0
+
+
+def _linear_stage(points, widths):
+    """An emissive linear curve (vertex widths) over the grey floor of `_stage`, under a dim dome."""
+    st = _stage(placements=(), specular=False)
+    tube = UsdGeom.BasisCurves.Define(st, '/World/Wire')
+    tube.CreateTypeAttr('linear')
+    tube.CreatePointsAttr([Gf.Vec3f(*p) for p in points])
+    tube.CreateCurveVertexCountsAttr([len(points)])
+    tube.CreateWidthsAttr(list(widths))
+    tube.SetWidthsInterpolation(UsdGeom.Tokens.vertex)
+    UsdShade.MaterialBindingAPI.Apply(tube.GetPrim()).Bind(UsdShade.Material.Get(st, '/World/Glow'))
+    return st
+
+
+@pytest.mark.parametrize('points, widths', [
+    (((-1.5, 0.8, 0.0), (-0.5, 1.4, 0.5), (0.5, 0.5, -0.5), (1.5, 1.0, 0.2), (2.0, 0.9, 1.0)),
+     (0.2, 0.6, 0.3, 0.5, 0.1)),
+    (((-0.6, 0.9, 0.0), (0.6, 0.9, 0.3)), (0.9, 0.3))])
+def test_light_sampling_and_bsdf_sampling_find_the_same_linear_curve_lights(points, widths):
+    """A bent wire of changing radius (four cones, round joints between cones of other slopes, round ends) and one
+    short thick cone whose round ends are 43 % of its area: light samples draw the cones' sides, and a BSDF ray
+    that meets an end or a joint keeps its emission whole (no light sample draws it), so light sampling alone, BSDF
+    sampling alone and MIS converge to one image (a joint or an end weighed as a side's point, or left to light
+    samples, would bias light sampling or MIS away from BSDF sampling)."""
+    _three_estimators_agree(read_stage(_linear_stage(points, widths)), [CURVE_LINEAR] * (len(points) - 1))

@@ -571,11 +571,10 @@ def test_a_shots_next_frame_reuses_curves_only_when_their_bvh_would_be_the_same(
 
 
 @pytest.mark.parametrize('linear', [False, True])
-def test_an_emissive_curve_is_seen_a_cubic_one_a_light_a_linear_one_warned(linear):
+def test_an_emissive_curve_is_seen_and_is_a_light_unwarned(linear):
     """Camera rays that meet an emissive tube see its emission: side-on before a black background, an orthographic
-    view shows radiance Le over the tube's silhouette, 2 r L of it (+ pi r^2, a linear tube's round ends).  A cubic
-    tube is a light of the path integrator (`test_curve_lights.py`); a linear one is not (warned once, at render
-    time)."""
+    view shows radiance Le over the tube's silhouette, 2 r L of it (+ pi r^2, a linear tube's round ends).  Cubic and
+    linear tubes are lights of the path integrator (`test_curve_lights.py`): nothing is warned."""
     glow = D.Material('/glow', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), emission=(3.0, 3.0, 3.0))
     r, half, n, width = 0.3, 1.5, 48, 4.0
     desc = scene([D.Container('/p', curves=[_tube(r, half, linear=linear)])], [glow], [], _ortho(width), width=n,
@@ -583,8 +582,25 @@ def test_an_emissive_curve_is_seen_a_cubic_one_a_light_a_linear_one_warned(linea
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter('always')
         img = render(desc, RenderOptions(spp=64, sampler='sobol', filter='box', integrator='path')).image[..., 0]
-    assert [str(w.message)[:25] for w in said if 'emissive curves' in str(w.message)] == \
-        (['1 emissive curves gprims '] if linear else [])
+    assert [str(w.message) for w in said if 'emissive curves' in str(w.message)] == []
     assert img.max() == pytest.approx(3.0, rel=1e-6)
     area = 2 * r * 2 * half + (math.pi * r * r if linear else 0.0)
     assert img.sum() * (width / n) ** 2 / 3.0 == pytest.approx(area, rel=5e-3)
+
+
+def test_an_emissive_ribbon_is_seen_but_is_no_light_and_is_warned():
+    """Embree tessellates ribbons, so no light sample can draw the point a ray finds on one: an emissive ribbon is
+    seen (radiance Le over its projected area) and warned about once, at render time, as no light of the path
+    integrator."""
+    glow = D.Material('/glow', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), emission=(3.0, 3.0, 3.0))
+    r, half, n, width = 0.6, 1.5, 48, 4.0
+    v = np.column_stack([np.linspace(-half, half, 4), np.zeros(4), np.zeros(4), np.full(4, r)])
+    ribbon = D.Curves('/r', vertices=v, segments=np.array([0]), linear=False, material=0,
+                      normals=np.tile([0.0, 0.0, 1.0], (4, 1)))
+    desc = scene([D.Container('/p', curves=[ribbon])], [glow], [], _ortho(width), width=n, height=n)
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter('always')
+        img = render(desc, RenderOptions(spp=64, sampler='sobol', filter='box', integrator='path')).image[..., 0]
+    assert [str(w.message)[:35] for w in said if 'emissive curves' in str(w.message)] == \
+        ['1 emissive curves gprims (ribbons, ']
+    assert img.sum() * (width / n) ** 2 / 3.0 == pytest.approx(2 * r * 2 * half, rel=5e-3)
