@@ -1,8 +1,10 @@
-"""Two stages lit by emissive curves, for measuring curve segments as lights of the path integrator
-(`ab_noise.py` against a revision where they were found by BSDF rays alone):
+"""Stages lit by emissive curves, for measuring curve segments as lights of the path integrator (`ab_noise.py`
+against a revision where they were found by BSDF rays alone):
 
-* ``tube.usda``: one thick, tapering, wavy tube (widths 0.1-0.8) above a diffuse floor under a dim dome;
-* ``neon.usda``: a thin tube (width 0.06) before a diffuse wall, over a rough metal floor (roughness 0.25).
+* ``tube.usda``: one thick, tapering, wavy cubic tube (widths 0.1-0.8) above a diffuse floor under a dim dome;
+* ``neon.usda``: a thin cubic tube (width 0.06) before a diffuse wall, over a rough metal floor (roughness 0.25);
+* ``wire.usda``, ``zigzag.usda``: the same two with linear curves (Embree's round linear curves: cones with round
+  joints and ends) through a zigzag of six points.
 
     python benchmarks/gen_curve_lights.py OUT_DIR
     python benchmarks/ab_noise.py OUT_DIR/tube.usda OUT_DIR/neon.usda --base REV --integrator path \\
@@ -17,6 +19,7 @@ from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
 WAVY = [(-1.5, 0.8, 0.0), (-0.5, 1.6, 0.5), (0.5, 0.3, -0.5), (1.5, 1.0, 0.2)]
 NEON = [(-1.5, 0.3, -1.0), (-0.5, 1.8, -1.0), (0.5, 0.2, -1.0), (1.5, 1.5, -1.0)]
+ZIGZAG = [(-1.5, 0.5, 0.2), (-0.9, 1.1, -0.3), (-0.3, 0.4, 0.3), (0.3, 1.15, -0.2), (0.9, 0.45, 0.4), (1.5, 1.0, 0.0)]
 
 
 def _material(st, path: str, **inputs) -> UsdShade.Material:
@@ -38,7 +41,7 @@ def _quad(st, path: str, points, material) -> None:
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(material)
 
 
-def stage(points, widths, floor: dict, wall: bool) -> Usd.Stage:
+def stage(points, widths, floor: dict, wall: bool, kind: str = 'cubic') -> Usd.Stage:
     st = Usd.Stage.CreateInMemory()
     UsdGeom.SetStageUpAxis(st, 'Y')
     _quad(st, '/World/Floor', [(-4, 0, -4), (4, 0, -4), (4, 0, 4), (-4, 0, 4)],
@@ -47,7 +50,7 @@ def stage(points, widths, floor: dict, wall: bool) -> Usd.Stage:
         _quad(st, '/World/Wall', [(-4, 0, -1.3), (-4, 4, -1.3), (4, 4, -1.3), (4, 0, -1.3)],
               _material(st, '/World/WallMat', diffuseColor=(0.7, 0.7, 0.7), roughness=0.9))
     tube = UsdGeom.BasisCurves.Define(st, '/World/Tube')
-    tube.CreateTypeAttr('cubic')
+    tube.CreateTypeAttr(kind)
     tube.CreateBasisAttr('bezier')
     tube.CreatePointsAttr(points)
     tube.CreateCurveVertexCountsAttr([len(points)])
@@ -71,7 +74,12 @@ def main() -> None:
         str(out / 'tube.usda'))
     stage(NEON, [0.06], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.25, metallic=1.0), True).Export(
         str(out / 'neon.usda'))
-    print(f'wrote {out / "tube.usda"} and {out / "neon.usda"}')
+    stage(ZIGZAG, [0.1, 0.5, 0.2, 0.6, 0.3, 0.15], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.9), False,
+          'linear').Export(str(out / 'wire.usda'))
+    stage([(x, y, -1.0) for x, y, _ in ZIGZAG], [0.06], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.25,
+                                                             metallic=1.0), True, 'linear').Export(
+        str(out / 'zigzag.usda'))
+    print(f'wrote {", ".join(str(out / n) for n in ("tube.usda", "neon.usda", "wire.usda", "zigzag.usda"))}')
 
 
 if __name__ == '__main__':
