@@ -212,7 +212,8 @@ SIDE_TOLERANCE = 1e-3
 def _side_u(L, j, p):
     """u of the point p of linear curve light j if p is on its cone's side (stored as the straight Bezier whose tube
     of circles the side is: u is p's place along its axis), else -1: a point of a round end or joint, which no light
-    sample draws (its emission keeps weight 1).  Not Embree's u: a sphere's parameter, which is not the axis's."""
+    sample draws (its emission keeps weight 1).  On the side: within SIDE_TOLERANCE of the segment's larger radius
+    (not of r(u), which a tapering tip brings to 0: a side point a light sample can draw must not keep weight 1)."""
     q0, _, _, q3 = _control(L, j)
     axis = (q3[0] - q0[0], q3[1] - q0[1], q3[2] - q0[2])
     x = (p[0] - q0[0], p[1] - q0[1], p[2] - q0[2])
@@ -222,7 +223,7 @@ def _side_u(L, j, p):
         return -1.0
     r = q0[3] + u * (q3[3] - q0[3])
     y = (x[0] - u * axis[0], x[1] - u * axis[1], x[2] - u * axis[2])
-    return u if abs(math.sqrt(dot(y, y)) - r) <= SIDE_TOLERANCE * r else -1.0
+    return u if abs(math.sqrt(dot(y, y)) - r) <= SIDE_TOLERANCE * max(q0[3], q3[3]) else -1.0
 
 
 @nb.njit(**_JIT)

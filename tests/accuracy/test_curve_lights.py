@@ -239,11 +239,12 @@ def _linear_stage(points, widths):
 @pytest.mark.parametrize('points, widths', [
     (((-1.5, 0.8, 0.0), (-0.5, 1.4, 0.5), (0.5, 0.5, -0.5), (1.5, 1.0, 0.2), (2.0, 0.9, 1.0)),
      (0.2, 0.6, 0.3, 0.5, 0.1)),
-    (((-0.6, 0.9, 0.0), (0.6, 0.9, 0.3)), (0.9, 0.3))])
+    (((-0.6, 0.9, 0.0), (0.6, 0.9, 0.3)), (0.9, 0.3)),
+    (((-0.6, 0.9, 0.0), (0.6, 0.9, 0.3)), (0.6, 0.0))])
 def test_light_sampling_and_bsdf_sampling_find_the_same_linear_curve_lights(points, widths):
-    """A bent wire of changing radius (four cones, round joints between cones of other slopes, round ends) and one
-    short thick cone whose round ends are 43 % of its area: light samples draw the cones' sides, and a BSDF ray
-    that meets an end or a joint keeps its emission whole (no light sample draws it), so light sampling alone, BSDF
-    sampling alone and MIS converge to one image (a joint or an end weighed as a side's point, or left to light
-    samples, would bias light sampling or MIS away from BSDF sampling)."""
+    """A bent wire of changing radius (four cones, round joints between cones of other slopes, round ends), one
+    short thick cone whose round ends are 43 % of its area, and a cone tapering to a point: light samples draw the
+    cones' sides, and a BSDF ray that meets an end or a joint keeps its emission whole (no light sample draws it), so
+    light sampling alone, BSDF sampling alone and MIS converge to one image (a joint or an end weighed as a side's
+    point, or left to light samples, would bias light sampling or MIS away from BSDF sampling)."""
     _three_estimators_agree(read_stage(_linear_stage(points, widths)), [CURVE_LINEAR] * (len(points) - 1))
