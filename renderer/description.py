@@ -206,6 +206,9 @@ class Texture:
     bias: tuple = (0.0, 0.0, 0.0, 0.0)
     # UsdTransform2d between the texture coordinates and the lookup: s' = a s + b t + c, t' = d s + e t + f
     transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+    # UDIM (a file path with <UDIM>): the pixels of tiles 1001, 1002, ... (ten a row of t; None: no such tile, read
+    # as 0), whose tile s, t in [0, 10) x [0, rows) reads at (s - floor s, t - floor t); `pixels` then unused
+    tiles: tuple = ()
 
 
 # Light types

@@ -173,18 +173,34 @@ def _material_tables(materials: list[D.Material]):
     return mat_i, mat_f
 
 
+_ZERO_TEXEL = np.zeros((1, 1, 1), np.float32)
+_IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+
+
 def _texture_tables(textures: list[D.Texture]):
-    tex_i = np.zeros((max(len(textures), 1), TEXTURE_I.width), np.int64)
-    tex_f = np.zeros((max(len(textures), 1), TEXTURE_F.width), np.float32)
-    chunks, off = [], 0
+    """(tex_i, tex_f, tex_data) of the textures, in their order; each UDIM texture's entries (the one read outside
+    its tiles, then its tiles, a missing one a texel 0: clamped, its scale and bias, no transform) after them all."""
+    rows = [(t.pixels, t.wrap_s, t.wrap_t, t.scale, t.bias, t.transform) for t in textures]
+    udim = [-1] * len(textures)
     for k, t in enumerate(textures):
-        px = np.ascontiguousarray(t.pixels, np.float32)
+        if t.tiles:
+            udim[k] = len(rows)
+            rows += [(_ZERO_TEXEL if px is None else px, 'clamp', 'clamp', t.scale, t.bias, _IDENTITY)
+                     for px in (None,) + tuple(t.tiles)]
+    tex_i = np.zeros((max(len(rows), 1), TEXTURE_I.width), np.int64)
+    tex_i[:, TEXTURE_I.offset['UDIM']] = -1
+    tex_f = np.zeros((max(len(rows), 1), TEXTURE_F.width), np.float32)
+    chunks, off = [], 0
+    for k, (pixels, wrap_s, wrap_t, scale, bias, transform) in enumerate(rows):
+        px = np.ascontiguousarray(pixels, np.float32)
         if px.ndim == 2:
             px = px[:, :, None]
         h, w, c = px.shape
-        TEXTURE_I.write(tex_i[k], OFFSET=off, WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(t.wrap_s, 0),
-                        WRAP_T=WRAP.get(t.wrap_t, 0))
-        TEXTURE_F.write(tex_f[k], SCALE=t.scale, BIAS=t.bias, XF=t.transform)
+        TEXTURE_I.write(tex_i[k], OFFSET=off, WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(wrap_s, 0),
+                        WRAP_T=WRAP.get(wrap_t, 0))
+        if k < len(udim) and udim[k] >= 0:
+            TEXTURE_I.write(tex_i[k], UDIM=udim[k], UDIM_ROWS=len(textures[k].tiles) // 10)
+        TEXTURE_F.write(tex_f[k], SCALE=scale, BIAS=bias, XF=transform)
         chunks.append(px.ravel())
         off += px.size
     return tex_i, tex_f, (np.concatenate(chunks) if chunks else np.zeros(1, np.float32))

@@ -17,7 +17,7 @@ from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
                              LF_COURSE, LF_GAIN, LF_IES, LF_SHAPED, MF_CLEARCOAT, MF_EMIT, MF_GAIN, MF_OPACITY,
                              MF_OPACITY_CUT, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX,
-                             MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY)
+                             MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY, TI_UDIM)
 
 
 def general_kernels() -> bool:
@@ -68,6 +68,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
         textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)
                       or np.any(mi[:, MI_SCALAR_TEX:MI_SCALAR_TEX + 5] >= 0) or np.any(mi[:, MI_NORMAL_TEX] >= 0)),
         normal_maps=bool(np.any(mi[:, MI_NORMAL_TEX] >= 0)),
+        udim=bool(np.any(data.tex_i[:, TI_UDIM] >= 0)),
         opacity=see_through(data),
         emission=bool(np.any(mf[:, MF_EMIT:MF_EMIT + 3] != 0.0)),
         clearcoat=bool(np.any(mf[:, MF_CLEARCOAT] != 0.0)),

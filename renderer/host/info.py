@@ -69,7 +69,9 @@ def describe(desc: SceneDescription) -> str:
     lines.append(f'  textures: {len(desc.textures)}')
     for t in desc.textures[:MAX_LISTED]:
         h, w = t.pixels.shape[:2]
-        lines.append(f'    {t.path} ({w} x {h}, {t.pixels.shape[2]} channels)')
+        found = sum(p is not None for p in t.tiles)
+        lines.append(f'    {t.path} ({found} UDIM tiles of {len(t.tiles)})' if t.tiles else
+                     f'    {t.path} ({w} x {h}, {t.pixels.shape[2]} channels)')
     for title, items in (('warnings', desc.warnings), ('skipped', desc.skipped)):
         lines.append(f'  {title}: {len(items)}')
         lines += [f'    {x}' for x in items[:MAX_LISTED]]

@@ -72,7 +72,7 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import (CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT,
                              MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SURFACE_LIGHT_F, SURFACE_LIGHT_I,
-                             TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH)
+                             TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH)
 from .features import constant_opacity
 from .light_tree import ENTIRE
 
@@ -113,7 +113,12 @@ def _ball_counts(data) -> np.ndarray:
 
 def texture_mean(data, k: int) -> np.ndarray:
     """The mean absolute RGB value of texture k of the scene tables (its texels with the UsdUVTexture scale
-    and bias, channels as `kernel/textures.sample_texture` reads them: one or two channels are grey)."""
+    and bias, channels as `kernel/textures.sample_texture` reads them: one or two channels are grey); a UDIM
+    texture's, the mean of its tiles' means (missing ones 0: a tile is a unit square of texture coordinates)."""
+    first = int(data.tex_i[k, TI_UDIM])
+    if first >= 0:
+        tiles = range(first + 1, first + 1 + 10 * int(data.tex_i[k, TI_UDIM_ROWS]))
+        return np.mean([texture_mean(data, j) for j in tiles], axis=0)
     off, w, h, ch = (int(data.tex_i[k, c]) for c in (TI_OFFSET, TI_WIDTH, TI_HEIGHT, TI_CHANNELS))
     px = data.tex_data[off:off + w * h * ch].reshape(-1, ch).astype(np.float64)
     rgb = px[:, [c if ch >= 3 else 0 for c in range(3)]]

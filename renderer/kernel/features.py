@@ -64,6 +64,7 @@ class Features:
     surface_lights: bool     # path: an emissive surface is a light (host/surface_lights.py)
     textures: bool           # a material with an image texture
     normal_maps: bool        # a UsdPreviewSurface whose normal a texture gives (`normal_maps.py`)
+    udim: bool               # a UDIM texture (tiles 1001, 1002, ...: `textures.udim_tile`)
     opacity: bool            # a UsdPreviewSurface with opacity < 1
     emission: bool           # a material with emissive colour
     clearcoat: bool          # a UsdPreviewSurface with clearcoat > 0
@@ -100,9 +101,9 @@ class Features:
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
                lux_lights=True, dome_texture=True, rect_texture=True, shaping=True, ies=True, light_gains=True,
-               light_shapes=True, surface_lights=True, textures=True, normal_maps=True, opacity=True, emission=True,
-               clearcoat=True, spheres=True, curves=True, normals=True, uvs=True, colors=True, xf_motion=True,
-               ortho=True, lens=True, time=True)
+               light_shapes=True, surface_lights=True, textures=True, normal_maps=True, udim=True, opacity=True,
+               emission=True, clearcoat=True, spheres=True, curves=True, normals=True, uvs=True, colors=True,
+               xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

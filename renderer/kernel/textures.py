@@ -10,9 +10,10 @@ import math
 
 import numba as nb
 
+from .features import F_UDIM
 from .jit import INLINE_JIT, SHADING_JIT
-from .tables import (TF_BIAS, TF_SCALE, TF_XF, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_WIDTH, TI_WRAP_S, TI_WRAP_T,
-                     WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR, WRAP_REPEAT as REPEAT)
+from .tables import (TF_BIAS, TF_SCALE, TF_XF, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH,
+                     TI_WRAP_S, TI_WRAP_T, WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR, WRAP_REPEAT as REPEAT)
 
 
 @nb.njit(**INLINE_JIT)
@@ -75,10 +76,28 @@ def _bilinear(S, tid, at, src):
             + (1 - fx) * fy * _texel(S, tid, ix, iy + 1, src) + fx * fy * _texel(S, tid, ix + 1, iy + 1, src))
 
 
+@nb.njit(**INLINE_JIT)
+def udim_tile(S, tid, s, t):
+    """(texture, s, t) that UDIM texture tid reads at (s, t): the coordinates mapped by its transform (TF_XF), tile
+    1001 + 10 floor(t) + floor(s) at (s - floor s, t - floor t) where 0 <= s < 10 and 0 <= t < UDIM_ROWS, else the
+    entry of a texel 0 (as a missing tile: Storm draws both black, with the texture's scale and bias)."""
+    f = S.tex_f
+    s, t = (f[tid, TF_XF] * s + f[tid, TF_XF + 1] * t + f[tid, TF_XF + 2],
+            f[tid, TF_XF + 3] * s + f[tid, TF_XF + 4] * t + f[tid, TF_XF + 5])
+    zero = S.tex_i[tid, TI_UDIM]
+    u = math.floor(s)
+    v = math.floor(t)
+    if 0.0 <= u < 10.0 and 0.0 <= v < S.tex_i[tid, TI_UDIM_ROWS]:
+        return zero + 1 + 10 * int(v) + int(u), s - u, t - v
+    return zero, 0.5, 0.5
+
+
 @nb.njit(**SHADING_JIT)
 def sample_texture(S, tid, s, t):
     """Bilinear RGB lookup at texture coordinates (s, t), with UsdUVTexture scale and bias (the channels of
-    `_source_channel`: one or two channels are grey)."""
+    `_source_channel`: one or two channels are grey); a UDIM texture's from the tile there (`udim_tile`)."""
+    if F_UDIM and S.tex_i[tid, TI_UDIM] >= 0:
+        tid, s, t = udim_tile(S, tid, s, t)
     at = _footprint(S, tid, s, t)
     ch = S.tex_i[tid, TI_CHANNELS]
     out0 = 0.0
@@ -99,6 +118,8 @@ def sample_texture(S, tid, s, t):
 def sample_channel(S, tid, s, t, c):
     """Bilinear lookup of one output channel c (0-3: r, g, b, a; `_source_channel`) at texture coordinates
     (s, t), with that channel's UsdUVTexture scale and bias: a scalar input's texture."""
+    if F_UDIM and S.tex_i[tid, TI_UDIM] >= 0:
+        tid, s, t = udim_tile(S, tid, s, t)
     src = _source_channel(c, S.tex_i[tid, TI_CHANNELS])
     v = _bilinear(S, tid, _footprint(S, tid, s, t), src) if src >= 0 else 1.0
     return v * S.tex_f[tid, TF_SCALE + c] + S.tex_f[tid, TF_BIAS + c]

@@ -416,8 +416,18 @@ class MaterialTable:
             wraps.append(w if w in _WRAPS else 'repeat')
         index = self.texture(asset, str(value('sourceColorSpace', 'auto')), *wraps,
                               value('scale', (1.0,) * 4, 'float4'), value('bias', (0.0,) * 4, 'float4'),
-                              str(tex.GetPath()), transform=self._st_transform(tex))
+                              str(tex.GetPath()), transform=self._st_transform(tex),
+                              layer=self._authored_in(tex, 'file'))
         return index, fallback
+
+    def _authored_in(self, shader: UsdShade.Shader, name: str) -> Sdf.Layer | None:
+        """The layer whose opinion gives shader input `name` its value (through interface connections): the layer
+        a relative path in it is anchored to."""
+        for attr in shader.GetInput(name).GetValueProducingAttributes():
+            for spec in attr.GetPropertyStack(self.time):
+                if spec.HasDefaultValue() or spec.layer.GetNumTimeSamplesForPath(spec.path):
+                    return spec.layer
+        return None
 
     def _st_transform(self, tex: UsdShade.Shader) -> tuple:
         """The affine map (a, b, c, d, e, f: s' = a s + b t + c, t' = d s + e t + f) of a UsdUVTexture's texture
@@ -443,13 +453,16 @@ class MaterialTable:
 
     def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,
                  scale: tuple, bias: tuple, owner: str, light: bool = False,
-                 transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)) -> int:
+                 transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0), layer: Sdf.Layer | None = None) -> int:
         """Index of a texture (file decoded once per colour space), -1 if it cannot be read.
 
         `light`: a light's radiance image (a DomeLight's lat-long texture), whose negative values are read
         as 0 with a warning, as pbrt-v4 reads them (`ClampZero`): light sampling draws directions by the
         image's luminance and never where it is negative, so only BSDF samples saw them and the estimators
-        disagreed.  A material reading the same file keeps its values (normal maps are negative)."""
+        disagreed.  A material reading the same file keeps its values (normal maps are negative).  A path with
+        <UDIM>: `_udim`, its tiles found against `layer`, the layer that authored it."""
+        if UsdShade.UdimUtils.IsUdimIdentifier(asset.path):
+            return self._udim(asset, layer, colour_space, scale, bias, owner, light, transform)
         resolved = asset.resolvedPath
         if not resolved:
             self.warn(f'{owner}: texture "{asset.path}" not found')
@@ -466,6 +479,33 @@ class MaterialTable:
             if pixels is not None:
                 self.textures.append(Texture(path=resolved, pixels=pixels, wrap_s=wrap_s,
                                              wrap_t=wrap_t, scale=scale, bias=bias, transform=transform))
+                self._texture_index[key] = len(self.textures) - 1
+        return self._texture_index[key]
+
+    def _udim(self, asset: Sdf.AssetPath, layer: Sdf.Layer | None, colour_space: str, scale: tuple, bias: tuple,
+              owner: str, light: bool, transform: tuple) -> int:
+        """Index of a UDIM texture (`Texture.tiles`): the tiles 1001-1100 that `UsdShade.UdimUtils` finds for the
+        path against the layer that authored it, as Storm finds them, a row of ten for each unit of t; a missing or
+        unreadable tile reads as 0 (Storm draws it black), clamped at its edges.  -1 (the UsdUVTexture's fallback,
+        as Storm) where no tile is found, and on a light (no UsdLux light reads UDIM tiles)."""
+        if light:
+            self.warn(f'{owner}: a UDIM texture ("{asset.path}") on a light is not read')
+            return -1
+        pattern = UsdShade.UdimUtils.ResolveUdimPath(asset.path, layer) if layer is not None else ''
+        found = UsdShade.UdimUtils.ResolveUdimTilePaths(pattern, layer) if pattern else []
+        paths = {int(n): p for p, n in found if str(n).isdigit() and 1001 <= int(n) <= 1100}
+        if not paths:
+            self.warn(f'{owner}: texture "{asset.path}" not found (no UDIM tile)')
+            return -1
+        key = ('udim', pattern, colour_space, scale, bias, transform)
+        if key not in self._texture_index:
+            rows = (max(paths) - 1001) // 10 + 1
+            tiles = tuple(self._load(paths[n], colour_space, owner) if n in paths else None
+                          for n in range(1001, 1001 + 10 * rows))
+            self._texture_index[key] = -1
+            if any(t is not None for t in tiles):
+                self.textures.append(Texture(path=pattern, pixels=np.zeros((1, 1, 1), np.float32), wrap_s='clamp',
+                                             wrap_t='clamp', scale=scale, bias=bias, transform=transform, tiles=tiles))
                 self._texture_index[key] = len(self.textures) - 1
         return self._texture_index[key]
 
