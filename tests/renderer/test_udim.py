@@ -29,8 +29,9 @@ def _tiles(folder: Path, name='tex'):
     exr_file(folder / f'{name}_1012.exr', np.full((3, 5, 1), GREY))
 
 
-def _material(stage, path, file, scale=None, bias=None, fallback=None):
-    """A black UsdPreviewSurface whose emissiveColor reads `file` at the primvar st."""
+def _material(stage, path, file, scale=None, bias=None, fallback=None, cutout=False):
+    """A black UsdPreviewSurface whose emissiveColor reads `file` at the primvar st; `cutout`: whose emissiveColor
+    is white and whose opacity reads the file's r channel, cut at opacityThreshold 0.1."""
     mat = UsdShade.Material.Define(stage, path)
     sh = UsdShade.Shader.Define(stage, path + '/Surface')
     sh.CreateIdAttr('UsdPreviewSurface')
@@ -43,8 +44,14 @@ def _material(stage, path, file, scale=None, bias=None, fallback=None):
     for name, value in (('scale', scale), ('bias', bias), ('fallback', fallback)):
         if value is not None:
             tex.CreateInput(name, Sdf.ValueTypeNames.Float4).Set(Gf.Vec4f(*value))
-    sh.CreateInput('emissiveColor', Sdf.ValueTypeNames.Color3f).ConnectToSource(
-        tex.CreateOutput('rgb', Sdf.ValueTypeNames.Float3))
+    if cutout:
+        sh.CreateInput('emissiveColor', Sdf.ValueTypeNames.Color3f).Set((1.0, 1.0, 1.0))
+        sh.CreateInput('opacityThreshold', Sdf.ValueTypeNames.Float).Set(0.1)
+        sh.CreateInput('opacity', Sdf.ValueTypeNames.Float).ConnectToSource(
+            tex.CreateOutput('r', Sdf.ValueTypeNames.Float))
+    else:
+        sh.CreateInput('emissiveColor', Sdf.ValueTypeNames.Color3f).ConnectToSource(
+            tex.CreateOutput('rgb', Sdf.ValueTypeNames.Float3))
     reader = UsdShade.Shader.Define(stage, path + '/Reader')
     reader.CreateIdAttr('UsdPrimvarReader_float2')
     reader.CreateInput('varname', Sdf.ValueTypeNames.String).Set('st')
@@ -119,6 +126,17 @@ def test_scale_and_bias_apply_to_every_tile_and_to_the_missing_ones(tmp_path):
     np.testing.assert_allclose(got[0, 0], (1.0, 0.0, 0.25), atol=1e-6)
     np.testing.assert_allclose(got[2, 0], (0.0, 0.0, 0.25), atol=1e-6)
     np.testing.assert_allclose(got[1, 1], (2 * GREY, GREY, GREY + 0.25), atol=1e-6)
+
+
+def test_a_scalar_input_reads_its_channel_from_the_tiles(tmp_path):
+    """opacity from the r channel of the tiles, cut at 0.1 (`kernel/textures.sample_channel`): present where r is
+    0.5 (1001), 0.8 (1002's top rows) or 0.3 (1012's one grey channel), cut where it is 0 (1002's bottom rows, the
+    missing tiles)."""
+    _tiles(tmp_path)
+    got = _tile_colours(read_stage(_stage(tmp_path, cutout=True)))
+    for where, present in (((0, 0), 1), ('top', 1), ((1, 1), 1), ('bottom', 0), ((2, 0), 0), ((0, 1), 0),
+                           ((2, 1), 0)):
+        np.testing.assert_allclose(got[where], (present,) * 3, atol=1e-6, err_msg=str(where))
 
 
 def test_no_tile_at_all_is_the_fallback_and_is_named(tmp_path):
