@@ -4,7 +4,10 @@ against a revision where they were found by BSDF rays alone):
 * ``tube.usda``: one thick, tapering, wavy cubic tube (widths 0.1-0.8) above a diffuse floor under a dim dome;
 * ``neon.usda``: a thin cubic tube (width 0.06) before a diffuse wall, over a rough metal floor (roughness 0.25);
 * ``wire.usda``, ``zigzag.usda``: the same two with linear curves (Embree's round linear curves: cones with round
-  joints and ends) through a zigzag of six points.
+  joints and ends) through a zigzag of six points;
+* ``beads.usda``: a string of beads, a linear curve through nine points along an arc whose widths alternate 0.4 and
+  0.08 (short cones between large round joints: the joints, lights of their own, are most of its light; over a rough
+  metal floor: ``beads_metal.usda``).
 
     python benchmarks/gen_curve_lights.py OUT_DIR
     python benchmarks/ab_noise.py OUT_DIR/tube.usda OUT_DIR/neon.usda --base REV --integrator path \\
@@ -13,7 +16,10 @@ against a revision where they were found by BSDF rays alone):
 from __future__ import annotations
 
 import argparse
+import math
 from pathlib import Path
+
+import numpy as np
 
 from pxr import Gf, Sdf, Usd, UsdGeom, UsdLux, UsdShade
 
@@ -79,7 +85,14 @@ def main() -> None:
     stage([(x, y, -1.0) for x, y, _ in ZIGZAG], [0.06], dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.25,
                                                              metallic=1.0), True, 'linear').Export(
         str(out / 'zigzag.usda'))
-    print(f'wrote {", ".join(str(out / n) for n in ("tube.usda", "neon.usda", "wire.usda", "zigzag.usda"))}')
+    arc = [(1.6 * math.sin(a), 0.9 + 0.5 * math.cos(a), 0.3 * math.sin(2 * a)) for a in np.linspace(-1.2, 1.2, 9)]
+    beads = [0.4 if k % 2 == 0 else 0.08 for k in range(9)]
+    stage(arc, beads, dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.9), False, 'linear').Export(
+        str(out / 'beads.usda'))
+    stage(arc, beads, dict(diffuseColor=(0.7, 0.7, 0.7), roughness=0.25, metallic=1.0), False, 'linear').Export(
+        str(out / 'beads_metal.usda'))
+    names = ("tube.usda", "neon.usda", "wire.usda", "zigzag.usda", "beads.usda", "beads_metal.usda")
+    print(f'wrote {", ".join(str(out / n) for n in names)}')
 
 
 if __name__ == '__main__':

@@ -54,8 +54,9 @@ balls): its world control points and radii (CTRL), sampled in u by bins weighted
 and uniformly in angle around the tube's circle, the density per unit area f(u) / (2 pi J) at the point, J the
 tube's area element there (`kernel/curves.tube_point`, `kernel/surface_lights._curve_point`), for light samples and
 hits alike.  A linear segment (CURVE_LINEAR) is the side of its cone, stored as the straight Bezier whose tube of
-circles that side is (`cone_sides`); its round ends and joints are found by BSDF rays alone, their emission with
-weight 1.  Its tree bounds: the control points' box grown by its largest radius, phi its largest projected area
+circles that side is (`cone_sides`); its round ends and joints are lights of their own (CURVE_CAP, `curve_caps`: a
+sphere's part outside the cones that meet it), which a segment names at its two ends.  Its tree bounds: the control
+points' box grown by its largest radius, phi its largest projected area
 (about A / pi) times its luminance.  Only placements by a similarity (the world tube is the tube of the world curve)
 that do not move, and untextured emission and opacity.
 
@@ -70,9 +71,11 @@ from collections import namedtuple
 import numpy as np
 
 from .. import description as D
-from ..kernel.tables import (CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON, GP_SPHERE, MF_EMIT,
-                             MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SURFACE_LIGHT_F, SURFACE_LIGHT_I,
-                             TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH)
+from ..kernel.tables import (CURVE_CAP, CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON,
+                             GP_SPHERE, MF_EMIT, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SLI_GPRIM,
+                             SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
+                             TI_UDIM, TI_UDIM_ROWS, TI_WIDTH)
+from . import curve_caps
 from .features import constant_opacity
 from .light_tree import ENTIRE
 
@@ -269,8 +272,6 @@ def _curve_lights(data, rows: np.ndarray, slot: int, g: int, means: dict, static
         world = np.empty((int(lit.sum()), n, 4, 4))
         world[..., :3] = np.einsum('rij,nvj->rnvi', m[lit][:, :, :3], ctrl[..., :3]) + m[lit][:, None, None, :, 3]
         world[..., 3] = ctrl[None, ..., 3] * scale[lit][:, None, None]
-        if data.gp_flags[g] & GP_LINEAR:
-            world = cone_sides(world)
         placed.append((rows[lit], slot, world, emit[lit], bool(data.gp_flags[g] & GP_LINEAR)))
     return placed, int((ok & ~lit).any())
 
@@ -466,15 +467,17 @@ def _texture_ids(data, row: int, slot: int, emit: np.ndarray) -> dict:
             'OPACITY_MAT': int(emit[5]), 'MAT': int(emit[6])}
 
 
-def _curve_rows(data, tubes: list, first: int):
-    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive curve segments, lights first, first + 1, ...: a
-    placement's segments are consecutive lights, so that a hit's light is its gprim slot's first one plus its
-    primitive (`kernel/surface_lights.light_of_hit`); the tree sees a segment's control points' box grown by its
-    largest radius (the tube lies inside it) and its largest projected area, about A / pi."""
+def _curve_rows(data, tubes: list, first: int, j_first: int):
+    """(sl_f rows, sl_i rows, bounds, row_lights) of the emissive curve segments, lights first, first + 1, ...
+    (surface lights j_first, j_first + 1, ...): a placement's segments are consecutive lights, so that a hit's light is
+    its gprim slot's first one plus its primitive (`kernel/surface_lights.light_of_hit`); the tree sees a segment's
+    control points' box grown by its largest radius (the tube lies inside it) and its largest projected area, about
+    A / pi.  A linear gprim's segments (their cones' sides) are followed by the lights of its round ends and joints
+    (`curve_caps`), a placement's consecutive, which a segment names at each of its ends (CAP0, CAP1)."""
     sl_f, sl_i, bounds, row_lights = [], [], [], []
     for rows, slot, world, emit, linear in tubes:
         R, n = world.shape[:2]
-        q = world.reshape(-1, 4, 4)
+        q = (cone_sides(world) if linear else world).reshape(-1, 4, 4)
         e = np.repeat(emit, n, axis=0)
         area = tube_areas(q)
         f = np.zeros((R * n, SURFACE_LIGHT_F.width))
@@ -489,10 +492,40 @@ def _curve_rows(data, tubes: list, first: int):
         lo, hi = q[:, :, :3].min(1) - reach, q[:, :, :3].max(1) + reach
         start = len(bounds)
         bounds += [(a, b, float(p), ENTIRE, True) for a, b, p in zip(lo, hi, area / np.pi * e[:, 4])]
-        sl_f += list(f)
-        sl_i += list(i)
+        SURFACE_LIGHT_I.write_rows(i, CAP0=np.full(R * n, -1, np.int64), CAP1=np.full(R * n, -1, np.int64))
+        caps = _cap_rows(i, world, emit, j_first + start + R * n) if linear else ([], [], [])
+        sl_f += list(f) + caps[0]
+        sl_i += list(i) + caps[1]
+        bounds += caps[2]
         row_lights.append((rows, slot, first + start + n * np.arange(R)))
     return sl_f, sl_i, bounds, row_lights
+
+
+def _cap_rows(seg_i: np.ndarray, world: np.ndarray, emit: np.ndarray, j_cap: int):
+    """(sl_f rows, sl_i rows, bounds) of the lights of a linear gprim's round ends and joints (`curve_caps`), the
+    first surface light j_cap, m a placement, placement by placement; fills its segments' rows (seg_i, R * n) CAP0
+    and CAP1 with them."""
+    R, n = world.shape[:2]
+    spheres, planes, area, share, caps = curve_caps.round_caps(world[:, :, :2])
+    m = spheres.shape[1]
+    light = j_cap + m * np.arange(R)[:, None, None] + caps[None]              # (R, n, 2)
+    light = np.where(caps[None] >= 0, light, -1).reshape(R * n, 2)
+    SURFACE_LIGHT_I.write_rows(seg_i, CAP0=light[:, 0], CAP1=light[:, 1])
+    if not m:
+        return [], [], []
+    e = np.repeat(emit, m, axis=0)
+    f = np.zeros((R * m, SURFACE_LIGHT_F.width))
+    i = np.zeros((R * m, SURFACE_LIGHT_I.width), np.int64)
+    ball = spheres.reshape(-1, 4)
+    SURFACE_LIGHT_F.write_rows(f, RAD=e[:, :3], AREA=area.ravel(), CENTER=ball[:, :3], RADIUS=ball[:, 3],
+                               CTRL=planes.reshape(R * m, -1))
+    none = np.full(R * m, -1, np.int64)
+    SURFACE_LIGHT_I.write_rows(i, CURVE=np.full(R * m, CURVE_CAP, np.int64), EMISSION_TEX=none, OPACITY_MAT=none,
+                               MAT=e[:, 6].astype(np.int64), GPRIM=np.repeat(seg_i[::n, SLI_GPRIM], m), CAP0=none,
+                               CAP1=none)
+    phi = (area * share[None]).ravel() / np.pi * e[:, 4]
+    bounds = [(c - r, c + r, float(p), ENTIRE, True) for c, r, p in zip(ball[:, :3], ball[:, 3], phi)]
+    return list(f), list(i), bounds
 
 
 def _tables(data, groups: list, balls: list, first: int, movers=(), tubes=()) -> SurfaceLights:
@@ -524,7 +557,7 @@ def _tables(data, groups: list, balls: list, first: int, movers=(), tubes=()) ->
         n_light += R
         n_tri += R * n
     f, i, b, rl = _ball_rows(data, balls, first + n_light)
-    f1, i1, b1, rl1 = _curve_rows(data, tubes, first + n_light + len(b))
+    f1, i1, b1, rl1 = _curve_rows(data, tubes, first + n_light + len(b), n_light + len(b))
     f, i, b, rl = f + f1, i + i1, b + b1, rl + rl1
     f2, i2, t2, c2, b2, rl2 = _mover_rows(data, movers, first + n_light + len(b), n_tri)
     f, i = f + f2, i + i2

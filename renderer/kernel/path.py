@@ -157,6 +157,8 @@ def light_sample(S, L, tr, vtx, b, strategy, chosen, u):
     ws = wi
     if F_SURFACE_LIGHTS and k >= L.surface_first:        # a point on a surface: aimed at from po
         ws, smax = shadow_ray(vtx, wi, dist, SHADOW_EPS)
+        if not smax > 0.0:
+            return BLACK
     if queues_shadows(L):
         s = w / pl
         T = vtx.T

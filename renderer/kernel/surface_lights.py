@@ -21,8 +21,11 @@ circle's circumference times the curve's speed over the squared distance, at the
 the bin, and uniformly in angle around its circle (`curves.tube_point`): its density per unit area at the point is
 f(u) / (2 pi J), J the tube's area element there, which a hit finds again from its point, Embree's u and the vertex
 it came from (`_curve_area_at`): 2 pi J / f(u) takes A's place above.  A linear segment (CURVE_LINEAR) is stored as
-the straight Bezier whose tube of circles is its cone's side: a hit finds u from its place along that axis, and a hit
-on a round end or joint, which no light sample draws, keeps its emission with weight 1 in every strategy (`_side_u`).
+the straight Bezier whose tube of circles is its cone's side: a hit finds u from its place along that axis
+(`_side_u`).  A round end or joint (CURVE_CAP, `host/curve_caps.py`) is a sphere's part past up to CAP_PLANES planes:
+drawn uniformly by area on the cap of its first plane (A: that cap's area), a point not past the others not drawn.
+A hit off a segment's side finds the end or joint it lies on among the two its segment names (`_cap_of_hit`); one
+that is no light keeps its emission with weight 1 in every strategy.
 
 `L` is the `PathLights` record (`host/light_selection.py`); light k of the tree is surface light
 k - L.surface_first.
@@ -37,12 +40,13 @@ from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .materials import opacity
 from .shapes import sphere_st, triangle_st
-from .tables import (CURVE_LINEAR, GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_CTRL, SLF_INV, SLF_RAD,
-                     SLF_RADIUS, SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID, SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST,
-                     SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
+from .tables import (CAP_PLANES, CURVE_CAP, CURVE_LINEAR, GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER,
+                     SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_CAP0, SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID,
+                     SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
 from .textures import sample_texture
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
-from .vecmath import cofactor_dir, cofactors, cross, dot, normalize, offset_origin, sub, toward, turn, xform_point
+from .vecmath import (cofactor_dir, cofactors, cross, dot, normalize, offset_origin, onb, sub, to_world, toward, turn,
+                      xform_point)
 
 ZERO = (0.0, 0.0, 0.0)
 NONE = ((0.0, 0.0, 1.0), 0.0, ZERO, 0.0, False)
@@ -205,6 +209,98 @@ def _curve_area_at(L, j, p0, p, u):
     return 2.0 * math.pi * tube_area_element(q0, q1, q2, q3, u, p) / _bin_density(q0, q1, q2, q3, p0, u)
 
 
+@nb.njit(**_JIT)
+def _cap_past(f, n):
+    """Whether the unit direction n from the centre of the sphere of cap light row f is past each of its planes
+    (n . a >= z): a point of the curve's surface (`host/curve_caps.py`)."""
+    for k in range(CAP_PLANES):
+        o = SLF_CTRL + 4 * k
+        if n[0] * f[o] + n[1] * f[o + 1] + n[2] * f[o + 2] < f[o + 3]:
+            return False
+    return True
+
+
+@nb.njit(**_JIT)
+def _cap_cone(L, j, p):
+    """(axis: the unit direction from p to the centre of the sphere of cap light j, sin^2 and 1 - cos of the
+    half-angle of the cone of directions from p that meet it), or 1 - cos = 0 where p is not outside it."""
+    f = L.sl_f[j]
+    w = (f[SLF_CENTER] - p[0], f[SLF_CENTER + 1] - p[1], f[SLF_CENTER + 2] - p[2])
+    d2 = dot(w, w)
+    r2 = f[SLF_RADIUS] * f[SLF_RADIUS]
+    sin2 = r2 / d2 if d2 > r2 else 0.0
+    if not sin2 > 0.0:
+        return w, 0.0, 0.0
+    dc = math.sqrt(d2)
+    return (w[0] / dc, w[1] / dc, w[2] / dc), sin2, sin2 / (1.0 + math.sqrt(1.0 - sin2))
+
+
+@nb.njit(**_JIT)
+def _cap_point(L, j, p, u1, u2):
+    """(point, unit normal, 1 / density per unit area there) of cap light j (a linear curve's round end or joint) seen
+    from p: a direction uniform in the cone of directions from p that meet its sphere, the sphere's near point along
+    it (density 1 / (2 pi (1 - cos)) per unit solid angle); from p inside the sphere, uniform by area on the cap of its
+    first plane, n . a >= z.  A point not past its planes is not drawn (1 / density 0: it lies inside a cone)."""
+    f = L.sl_f[j]
+    r = f[SLF_RADIUS]
+    axis, sin2_max, one_minus = _cap_cone(L, j, p)
+    if one_minus > 0.0:
+        # the direction at angle t from the axis meets the sphere where its normal makes angle alpha with -axis
+        v = u1 * one_minus                                   # 1 - cos t
+        sin2 = v * (2.0 - v)
+        cos_t = 1.0 - v
+        cos_a = sin2 / math.sqrt(sin2_max) + cos_t * math.sqrt(max(0.0, 1.0 - sin2 / sin2_max))
+        sin_a = math.sqrt(max(0.0, 1.0 - cos_a * cos_a))
+        c, s = turn(u2)
+        t, b = onb(axis)
+        w = to_world((sin_a * c, sin_a * s, cos_a), t, b, axis)
+        n = (-w[0], -w[1], -w[2])
+    else:
+        a = (f[SLF_CTRL], f[SLF_CTRL + 1], f[SLF_CTRL + 2])
+        z = 1.0 - u1 * (1.0 - f[SLF_CTRL + 3])
+        ring = math.sqrt(max(0.0, 1.0 - z * z))
+        c, s = turn(u2)
+        t, b = onb(a)
+        n = to_world((ring * c, ring * s, z), t, b, a)
+    q = (f[SLF_CENTER] + r * n[0], f[SLF_CENTER + 1] + r * n[1], f[SLF_CENTER + 2] + r * n[2])
+    if not _cap_past(f, n):
+        return q, n, 0.0
+    return q, n, _cap_area(L, j, p, q, n, one_minus)
+
+
+@nb.njit(**_JIT)
+def _cap_area(L, j, p, q, n, one_minus):
+    """A of `sample_surface`'s pdf d^2 / (|cos_l| A) for the point q (unit normal n) of cap light j seen from p: the
+    drawn cap's area from inside its sphere, else d^2 2 pi (1 - cos) / |cos_l| (a density 1 / (2 pi (1 - cos)) per
+    unit solid angle)."""
+    if not one_minus > 0.0:
+        return L.sl_f[j, SLF_AREA]
+    v = sub(q, p)
+    d2 = dot(v, v)
+    cos_l = abs(dot(n, v)) / math.sqrt(d2) if d2 > 0.0 else 0.0
+    return d2 * 2.0 * math.pi * one_minus / cos_l if cos_l > 0.0 else 0.0
+
+
+@nb.njit(**_JIT)
+def _cap_of_hit(L, j, p):
+    """The cap light (surface-light index) of the point p of linear curve light j off its cone's side: of the
+    spheres at the segment's two ends (CAP0, CAP1), the one p lies on (the nearer to its surface) among those p is
+    past the planes of, else -1 (an end that is no light)."""
+    best = -1
+    err = math.inf
+    for e in range(2):
+        c = L.sl_i[j, SLI_CAP0 + e]
+        if c < 0:
+            continue
+        f = L.sl_f[c]
+        x = (p[0] - f[SLF_CENTER], p[1] - f[SLF_CENTER + 1], p[2] - f[SLF_CENTER + 2])
+        d = math.sqrt(dot(x, x))
+        if d > 0.0 and abs(d - f[SLF_RADIUS]) < err and _cap_past(f, (x[0] / d, x[1] / d, x[2] / d)):
+            best = c
+            err = abs(d - f[SLF_RADIUS])
+    return best
+
+
 SIDE_TOLERANCE = 1e-3
 
 
@@ -328,6 +424,9 @@ def sample_surface(S, L, tr, k, p, time, u1, u2):
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         q, nrm, area = _ellipsoid_point(L, j, u1, u2)
         at = q
+    elif F_CURVES and L.sl_i[j, SLI_CURVE] == CURVE_CAP:
+        q, nrm, area = _cap_point(L, j, p, u1, u2)
+        at = q
     elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
         q, nrm, area = _curve_point(L, j, p, u1, u2)
         at = q
@@ -360,6 +459,8 @@ def shadow_ray(vtx, wi, dist, eps):
     p, po = vtx.p, vtx.po
     v = (p[0] + dist * wi[0] - po[0], p[1] + dist * wi[1] - po[1], p[2] + dist * wi[2] - po[2])
     d = math.sqrt(dot(v, v))
+    if not d > 0.0:                                 # (the point is po itself: no ray, `path.light_sample` drops it)
+        return wi, 0.0
     return (v[0] / d, v[1] / d, v[2] / d), d * (1.0 - eps)
 
 
@@ -394,7 +495,10 @@ def surface_emission(S, L, tr, Le, hit, prev):
     if F_CURVES and L.sl_i[j, SLI_CURVE] == CURVE_LINEAR:
         u = _side_u(L, j, hit[0])
         if u < 0.0:
-            return Le
+            j = _cap_of_hit(L, j, hit[0])
+            if j < 0:
+                return Le
+            k = j + L.surface_first
     p0, n0, pb, mode = prev[0], prev[1], prev[2], prev[3]
     if mode == 2:
         return ZERO
@@ -409,6 +513,9 @@ def surface_emission(S, L, tr, Le, hit, prev):
         area = _moving_area(L, tr, j, time, ng)
     elif L.sl_i[j, SLI_ELLIPSOID] != 0:
         area = _ellipsoid_area_at(L, j, p)
+    elif F_CURVES and L.sl_i[j, SLI_CURVE] == CURVE_CAP:           # (`_cap_area` at the hit)
+        one_minus = _cap_cone(L, j, p0)[2]
+        area = dot(v, v) * 2.0 * math.pi * one_minus / cos_l if one_minus > 0.0 else L.sl_f[j, SLF_AREA]
     elif F_CURVES and L.sl_i[j, SLI_CURVE] != 0:
         area = _curve_area_at(L, j, p0, p, u)
         if not area > 0.0:                          # (a point of no area: no light sample draws it)

@@ -107,13 +107,17 @@ LIGHT_TREE = Table('T', [('C', 3), ('RADIUS', 1), ('PHI', 1), ('W', 3), ('COS_O'
 # a curve segment's world Bezier control points (x, y, z, radius: CTRL, 4 x 4 row-major) and CURVE 1 (CURVE_CUBIC;
 # CURVE_LINEAR: a linear segment's cone side as a straight Bezier, `host/surface_lights.cone_sides`); the material
 # whose opacity texture the emission is multiplied by at each point (OPACITY_MAT, -1: none); the material that emits
-# (MAT: its MF_GAIN, a MeshLightAPI's inputs:diffuse and inputs:specular)
-CURVE_CUBIC, CURVE_LINEAR = 1, 2
+# (MAT: its MF_GAIN, a MeshLightAPI's inputs:diffuse and inputs:specular); a linear segment's lights of the round
+# ends or joints at its two ends (CAP0, CAP1: surface-light indices, -1: none); CURVE_CAP: such a light, the sphere
+# (CENTER, RADIUS) of an end or a joint, its part outside the cones that meet it (CTRL: CAP_PLANES rows (a, z), the
+# unit normals n with n . a >= z; the first row's cap the one drawn, of area AREA)
+CURVE_CUBIC, CURVE_LINEAR, CURVE_CAP = 1, 2, 3
+CAP_PLANES = 4
 SURFACE_LIGHT_F = Table('SLF', [('RAD', 3), ('AREA', 1), ('CENTER', 3), ('RADIUS', 1), ('AXES', 9), ('INV', 9),
                                 ('CTRL', 16)])
 SURFACE_LIGHT_I = Table('SLI', [('FIRST', 1), ('COUNT', 1), ('ELLIPSOID', 1), ('MOVING', 1), ('INST', 1),
                                 ('INST_PRIM', 1), ('EMISSION_TEX', 1), ('GPRIM', 1), ('CURVE', 1), ('OPACITY_MAT', 1),
-                                ('MAT', 1)])
+                                ('MAT', 1), ('CAP0', 1), ('CAP1', 1)])
 
 TABLES = (MATERIAL_F, MATERIAL_I, LIGHT_F, TEXTURE_I, TEXTURE_F, CAMERA, LIGHT_TREE, SURFACE_LIGHT_F, SURFACE_LIGHT_I)
 for _t in TABLES:
@@ -137,5 +141,5 @@ __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE
            'CAMERA', 'LIGHT_TREE', 'SURFACE_LIGHT_F', 'SURFACE_LIGHT_I', 'TREE_COLS', 'TREE_LEVELS', 'TREE_SLOTS', 'TABLES', 'S_ROUGH', 'S_METAL',
            'S_OPACITY', 'S_CLEARCOAT', 'S_CC_ROUGH', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_CURVES',
-           'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON', 'CURVE_CUBIC', 'CURVE_LINEAR',
+           'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON', 'CURVE_CUBIC', 'CURVE_LINEAR', 'CURVE_CAP', 'CAP_PLANES',
            'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

@@ -15,9 +15,9 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.host.light_tree import leaf_record
 from rtc.renderer.kernel.light_tree import SPLIT_BELOW, light_pmf
-from rtc.renderer.kernel.tables import (CURVE_LINEAR, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD, SLF_RADIUS,
-                                        SLI_COUNT, SLI_CURVE, SLI_EMISSION_TEX, SLI_ELLIPSOID, SLI_FIRST, SLI_INST,
-                                        SLI_INST_PRIM, SLI_MOVING, SURFACE_LIGHT_F, T_C)
+from rtc.renderer.kernel.tables import (CURVE_CAP, CURVE_LINEAR, SLF_AREA, SLF_AXES, SLF_CENTER, SLF_INV, SLF_RAD,
+                                        SLF_RADIUS, SLI_COUNT, SLI_CURVE, SLI_EMISSION_TEX, SLI_ELLIPSOID, SLI_FIRST,
+                                        SLI_INST, SLI_INST_PRIM, SLI_MOVING, SURFACE_LIGHT_F, T_C)
 from rtc.renderer.usd.stage import read_stage
 from tests.renderer.handmade import look_at, quad, scene, translate
 
@@ -275,16 +275,19 @@ def test_the_lights_example_scene_samples_every_kind_of_light():
 def test_the_emitters_example_scene_makes_every_glowing_surface_a_light():
     """scenes/emitters.usda: the emissive ellipsoid, the see-through pane (opacity 0.5: half its emission),
     the cube that moves over the shutter and the screen whose emissiveColor is an image are four surface
-    lights, and the neon sign's seven linear segments seven more, all in the tree, beside the DomeLight; no
-    warning; a small path render of it is finite and lit."""
+    lights, and the neon sign's seven linear segments seven more and its nine round ends and joints (two curves of
+    seven points and two) nine more, all in the tree, beside the DomeLight; no warning; a small path render of it is
+    finite and lit."""
     from pathlib import Path
     from rtc.renderer.host.render import RenderOptions, Renderer
     desc = read_stage(str(Path(__file__).resolve().parents[2] / 'scenes' / 'emitters.usda'))
     assert [l.type for l in desc.lights] == [D.DOME] and not desc.warnings
     with _path_lights(desc) as (built, L):
         neon = L.sl_i[:, SLI_CURVE] == CURVE_LINEAR
-        assert L.n_surface == 11 and neon.sum() == 7 and (L.depth[1:12] >= 0).all()
-        np.testing.assert_allclose(L.sl_f[neon, SLF_RAD:SLF_RAD + 3], [(6.0, 0.9, 3.6)] * 7, rtol=1e-6)
+        caps = L.sl_i[:, SLI_CURVE] == CURVE_CAP
+        assert L.n_surface == 20 and neon.sum() == 7 and caps.sum() == 9 and (L.depth[1:21] >= 0).all()
+        np.testing.assert_allclose(L.sl_f[neon | caps, SLF_RAD:SLF_RAD + 3], [(6.0, 0.9, 3.6)] * 16, rtol=1e-6)
+        neon |= caps
         kinds = {(int(L.sl_i[j, SLI_ELLIPSOID]), int(L.sl_i[j, SLI_MOVING]), int(L.sl_i[j, SLI_COUNT]),
                   int(L.sl_i[j, SLI_EMISSION_TEX]) >= 0): L.sl_f[j, SLF_RAD:SLF_RAD + 3] for j in np.flatnonzero(~neon)}
         assert sorted(kinds) == [(0, 0, 2, False), (0, 0, 2, True), (0, 1, 12, False), (1, 0, 0, False)]
