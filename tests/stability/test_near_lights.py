@@ -147,3 +147,29 @@ def test_area_light_at_the_edge_of_float32(case, strategy):
         img = img - light.radiance[0]
     assert img.mean() == pytest.approx(ref.mean(), rel=0.005), (img.mean() / ref.mean())
     assert np.sqrt(np.mean((img - ref) ** 2)) < 0.02 * ref.max()
+
+
+@pytest.mark.parametrize('r', [0.1, 1e-4, 1e-7])
+def test_a_linear_curves_round_end_far_and_tiny(r):
+    """An emissive linear curve of one segment of length 0 is a sphere (Embree's round end), which the path integrator
+    samples as its round end's light, in the cone of directions that meet it: of power pi^2 r^2 L = pi (L = 1 / (pi
+    r^2), a unit point source), at height 1 beside the camera's window, it lights the plane with
+    E = pi L (r / d)^2 cos theta at every point (wholly above their horizon) down to r / d = 2e-8, where the cone's
+    1 - cos is 5e-15 (computed as sin^2 / (1 + cos), not 1 - cos)."""
+    c, x0, L = 1.0 + r, 2.5, 1.0 / (math.pi * r * r)
+    lam = D.Material('/lambert', model=D.LAMBERTIAN, diffuse=(KD,) * 3)
+    glow = D.Material('/glow', diffuse=(0.0, 0.0, 0.0), emission=(L, L, L))
+    dot = D.Curves('/dot', vertices=np.array([[x0, c, 0.0, r], [x0, c, 0.0, r]]), segments=np.array([0]), linear=True,
+                   material=1, flags=np.zeros(1, np.uint8))
+    desc = scene([D.Container('/', meshes=[quad(40.0)], curves=[dot])], [lam, glow], [], ortho_down(width=4.0),
+                 width=N, height=N)
+    with Renderer(desc) as rr:
+        img = rr.render(RenderOptions(spp=256, integrator='path', filter='box', max_depth=1, seed=7)).image[..., 0]
+
+    def irradiance(x, z):
+        d2 = (x - x0) ** 2 + z * z + c * c
+        return math.pi * L * r * r / d2 * (c / np.sqrt(d2))
+    ref = ti.pixel_average(lambda x, z: KD / np.pi * irradiance(x, z), N, 4.0, sub=24)
+    assert np.isfinite(img).all()
+    assert img.mean() == pytest.approx(ref.mean(), rel=0.005), (img.mean() / ref.mean())
+    assert np.sqrt(np.mean((img - ref) ** 2)) < 0.02 * ref.max()
