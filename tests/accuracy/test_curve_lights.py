@@ -389,3 +389,20 @@ def test_the_points_drawn_on_ends_and_joints_lie_on_embrees_surface():
     assert hit.all()
     np.testing.assert_allclose(P, pts, atol=2e-5)
     np.testing.assert_allclose(N, nrm, atol=2e-5)
+
+
+def test_every_placement_of_a_gprim_has_its_caps_turned_with_it():
+    """Two placements of the bent wire (as is; turned, scaled 1.7 and moved) give, together, what each gives alone:
+    the same spheres placed, the planes turned, the areas scaled by 1.7^2, the same shares and the same lights."""
+    ends = _ends(*BENT)[0]
+    c, s = math.cos(0.7), math.sin(0.7)
+    placed = ends.copy()
+    placed[..., :3] = ends[..., :3] @ (1.7 * np.array([[c, -s, 0], [s, c, 0], [0, 0, 1]])).T + (1.0, 2.0, 3.0)
+    placed[..., 3] *= 1.7
+    both = round_caps(np.stack([ends, placed]))
+    for k, alone in enumerate((round_caps(ends[None]), round_caps(placed[None]))):
+        for x, y in zip(both[:3], alone[:3]):
+            np.testing.assert_allclose(x[k], y[0], rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(both[3], alone[3], rtol=1e-12)
+        assert both[4].tolist() == alone[4].tolist()
+    np.testing.assert_allclose(both[2][1], 1.7 ** 2 * both[2][0], rtol=1e-12)
