@@ -8,10 +8,11 @@ inside the hull.  So the point c + r n of the sphere (n a unit vector) is on the
 n . a >= z, with (a, z) = (d, -s) at the segment's second end and (-d, s) at its first.
 
 A sphere that segments share (a joint: ends equal in value, as consecutive segments' are; also a closed curve's first
-and last ends) is one light: its points past every segment that meets it (at most CAP_PLANES planes), drawn
-uniformly on the cap of the largest z (area 2 pi r^2 (1 - z): a cap's area is proportional to its height), the
-points that are not past the other planes not drawn (they lie inside the other cones; the sides there are their own
-lights).  Similarities keep s and the angles, so every placement of a gprim has the same planes, turned.
+and last ends) is one light: its points past every segment that meets it (at most CAP_PLANES planes, the one of the
+largest z first: its cap, of area 2 pi r^2 (1 - z), a cap's area being proportional to its height, holds them all).
+The kernel draws it in the cone of directions from the shading point that meet the sphere, or, from inside it,
+uniformly on that first cap; the points that are not past every plane are not drawn (they lie inside other cones,
+whose sides are their own lights; `kernel/surface_lights._cap_point`).  Similarities keep s and the angles, so every placement of a gprim has the same planes, turned.
 
 A segment with no side (L = 0, or |s| >= 1: one sphere holds the other) hides its smaller sphere and bounds the
 larger nowhere.  No light: a sphere of radius 0, a hidden one, one met by more than CAP_PLANES segments, and one

@@ -23,7 +23,9 @@ f(u) / (2 pi J), J the tube's area element there, which a hit finds again from i
 it came from (`_curve_area_at`): 2 pi J / f(u) takes A's place above.  A linear segment (CURVE_LINEAR) is stored as
 the straight Bezier whose tube of circles is its cone's side: a hit finds u from its place along that axis
 (`_side_u`).  A round end or joint (CURVE_CAP, `host/curve_caps.py`) is a sphere's part past up to CAP_PLANES planes:
-drawn uniformly by area on the cap of its first plane (A: that cap's area), a point not past the others not drawn.
+drawn in the cone of directions from the shading point that meet the sphere (uniform in solid angle, the sphere's near
+point along it; from inside the sphere, uniformly by area on the cap of its first plane), a point not past every
+plane not drawn (`_cap_point`, `_cap_area`: A such that the pdf above is the draw's).
 A hit off a segment's side finds the end or joint it lies on among the two its segment names (`_cap_of_hit`); one
 that is no light keeps its emission with weight 1 in every strategy.
 
