@@ -27,6 +27,7 @@ import numpy as np
 from pxr import Tf, Usd, UsdGeom
 
 from ..description import FLOAT32_MAX, Mesh, Sphere
+from .corner_colours import DISPLAY_COLOR, corner_colour_name
 from .texture_coordinates import uv_primvar
 
 Warn = Callable[[str], None]
@@ -159,15 +160,16 @@ def _authored_normals(mesh: UsdGeom.PointBased, time, warn: Warn):
     return None
 
 
-def varying_display_color(prim: Usd.Prim, time):
-    """(values (k, 3), interpolation) of a Mesh's, Points' or BasisCurves' own primvars:displayColor where it varies
-    over it (an interpolation other than constant, two or more distinct finite colours), else None.  Such a mesh
-    keeps its colours per triangle corner (`Mesh.colors`), a cloud a colour a point (`Sphere.colors`), curves a
-    colour at each segment end (`Curves.colors`), which a
-    material fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree)."""
+def varying_display_color(prim: Usd.Prim, time, name: str = DISPLAY_COLOR):
+    """(values (k, 3), interpolation) of a Mesh's, Points' or BasisCurves' own primvars:displayColor (or the colour
+    primvar `name`: `corner_colours`) where it varies over it (an interpolation other than constant, two or more
+    distinct finite colours), else None.  Such a mesh keeps its colours per triangle corner (`Mesh.colors`), a cloud
+    a colour a point (`Sphere.colors`), curves a colour at each segment end (`Curves.colors`), which a material
+    fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree) or a material
+    that reads that primvar (`materials.Materials._primvar_value`)."""
     if implicit_type(prim) not in VARYING_COLOUR_TYPES:
         return None
-    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar('displayColor')
+    pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
         return None
     values = flattened(pv, time, lambda message: None, '')      # (unreadable: `fallback` warns)
@@ -235,11 +237,12 @@ def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, s
                 warn(f'{path}: primvars:{st.GetPrimvarName()}: {len(values)} values do not match '
                      f'interpolation "{st.GetInterpolation()}"; texture coordinates ignored')
     colors = None
-    varying = varying_display_color(prim, time)
+    kept = corner_colour_name(prim)
+    varying = varying_display_color(prim, time, kept)
     if varying is not None:
         colors = _per_corner(varying[0], varying[1], face, corner, indices, len(points), len(counts))
         if colors is None:
-            warn(f'{path}: primvars:displayColor: {len(varying[0])} values do not match interpolation '
+            warn(f'{path}: primvars:{kept}: {len(varying[0])} values do not match interpolation '
                  f'"{varying[1]}"; their mean colour used')
             colors = np.broadcast_to(varying[0].mean(0), (len(face), 3, 3)).copy()
     smooth = normals is None and (dropped or subdivided)

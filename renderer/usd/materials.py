@@ -35,6 +35,7 @@ from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
 from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+from .corner_colours import corner_colour_name
 from .geometry import flattened, varying_display_color
 
 Warn = Callable[[str], None]
@@ -161,7 +162,8 @@ class MaterialTable:
     def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput, given: dict | None = None):
         """The value a UsdPrimvarReader reads on `gprim` (a GeomSubset: its mesh's): its primvar r.varname
         (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
-        curves' displayColor that varies over them (their per-corner colours, `geometry.varying_display_color`);
+        curves' displayColor that varies over them (their per-corner colours, `geometry.varying_display_color`; a
+        mesh's: the colour primvar it keeps per corner, `corner_colours`);
         the mean, warned, for another that varies; the reader's fallback where the gprim has none (as Storm)."""
         if gprim is None or not r.varname:
             return r.fallback
@@ -181,8 +183,8 @@ class MaterialTable:
                       'its fallback used')
             return r.fallback
         if pv is not None and pv.GetInterpolation() != UsdGeom.Tokens.constant and np.any(v != v[0]):
-            if r.field == 'diffuse' and r.varname == 'displayColor' and \
-                    varying_display_color(prim, self.time) is not None:
+            if r.field == 'diffuse' and r.varname == corner_colour_name(prim) and \
+                    varying_display_color(prim, self.time, r.varname) is not None:
                 return 'per corner'
             self.warn(f'{prim.GetPath()}: {name} varies over it ({pv.GetInterpolation()}); {r.reader} reads its '
                       'mean')

@@ -47,7 +47,7 @@ def material_uv_name(prim: Usd.Prim) -> str | None:
     if not shader or shader.GetShaderId() != 'UsdPreviewSurface':
         return None
     for inp in shader.GetInputs():
-        for source in _sources(inp):
+        for source in shader_sources(inp):
             if source.GetShaderId() == 'UsdUVTexture':
                 name = _reader_name(source)
                 if name:
@@ -55,7 +55,7 @@ def material_uv_name(prim: Usd.Prim) -> str | None:
     return None
 
 
-def _sources(inp: UsdShade.Input) -> list[UsdShade.Shader]:
+def shader_sources(inp: UsdShade.Input) -> list[UsdShade.Shader]:
     """The shaders whose outputs drive input `inp` (through material-interface inputs)."""
     return [UsdShade.Shader(attr.GetPrim()) for attr in inp.GetValueProducingAttributes()
             if UsdShade.Utils.GetType(attr.GetName()) == UsdShade.AttributeType.Output]
@@ -68,7 +68,7 @@ def _reader_name(texture: UsdShade.Shader) -> str | None:
     for _ in range(8):                              # (a chain of transforms; a cycle stops here)
         inp = node.GetInput(name)
         name = 'in'
-        sources = _sources(inp) if inp else []
+        sources = shader_sources(inp) if inp else []
         if not sources:
             return None
         node = sources[0]

@@ -181,6 +181,61 @@ def test_a_varying_display_color_read_goes_per_corner_and_another_is_averaged():
                for w in desc.warnings)
 
 
+def _two_faces(st, path, mat, name, subsets=None):
+    """Two triangles of a quad whose colour primvar `name` is red on one face and blue on the other (uniform), bound
+    to `mat`, or with materialBind subsets of a face each bound to the materials `subsets`."""
+    mesh = UsdGeom.Mesh.Define(st, path)
+    mesh.CreatePointsAttr([(-2, -2, 0), (2, -2, 0), (2, 2, 0), (-2, 2, 0)])       # (facing the camera of `_lit`)
+    mesh.CreateFaceVertexCountsAttr([3, 3])
+    mesh.CreateFaceVertexIndicesAttr([0, 1, 2, 0, 2, 3])
+    UsdGeom.PrimvarsAPI(mesh.GetPrim()).CreatePrimvar(name, Sdf.ValueTypeNames.Color3fArray,
+                                                      UsdGeom.Tokens.uniform).Set([RED, BLUE])
+    if subsets is None:
+        UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)
+    for k, m in enumerate(subsets or ()):
+        sub = UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).CreateMaterialBindSubset(f'Face{k}', [k])
+        UsdShade.MaterialBindingAPI.Apply(sub.GetPrim()).Bind(m)
+    return mesh
+
+
+@pytest.mark.parametrize('how', ['mesh', 'subsets'])
+def test_another_varying_colour_read_goes_per_corner_as_display_color_does(how):
+    """A mesh whose bound material (or each of its materialBind subsets' materials) reads a colour primvar other than
+    displayColor that varies over it (`tint`, uniform) keeps that primvar per corner and shades by it, as Storm binds
+    it: no warning, and the image is the one of the same mesh whose displayColor holds those colours (bit for bit)."""
+    images = []
+    for name in ('tint', 'displayColor'):
+        st = Usd.Stage.CreateInMemory()
+        mat = _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', name, None)})
+        _two_faces(st, '/Q', mat, name, None if how == 'mesh' else [mat, mat])
+        _lit(st)
+        desc = read_stage(st)
+        assert not [w for w in desc.warnings if 'varies' in w], desc.warnings
+        meshes = [g for c in desc.containers for g in c.meshes]
+        colours = np.concatenate([g.colors for g in meshes]).reshape(-1, 3).astype(np.float64)
+        assert {tuple(np.round(c, 4).tolist()) for c in colours} == {tuple(np.round(RED, 4)), tuple(np.round(BLUE, 4))}
+        assert all(desc.materials[g.material].vertex_colors for g in meshes)
+        with Renderer(desc, threads=1) as r:
+            images.append(r.render(RenderOptions(width=32, height=32, spp=4, integrator='path', max_depth=2,
+                                                 threads=1)).image)
+    assert np.array_equal(images[0], images[1])
+    assert images[0][..., 0].max() > 3 * images[0][..., 0].min() + 1e-3
+
+
+def test_materials_that_read_other_colours_on_one_mesh_keep_display_color():
+    """Subsets whose materials read two other colour primvars: the mesh keeps displayColor per corner (none here),
+    and each reader reads its primvar's mean (warned), as before."""
+    st = Usd.Stage.CreateInMemory()
+    a = _material(st, '/Looks/A', {'diffuseColor': ('UsdPrimvarReader_float3', 'tint', None)})
+    b = _material(st, '/Looks/B', {'diffuseColor': ('UsdPrimvarReader_float3', 'shade', None)})
+    mesh = _two_faces(st, '/Q', a, 'tint', [a, b])
+    UsdGeom.PrimvarsAPI(mesh.GetPrim()).CreatePrimvar('shade', Sdf.ValueTypeNames.Color3fArray,
+                                                      UsdGeom.Tokens.uniform).Set([BLUE, RED])
+    desc = read_stage(st)
+    assert all(g.colors is None for c in desc.containers for g in c.meshes)
+    assert sum('varies over it (uniform)' in w and 'reads its mean' in w for w in desc.warnings) == 2
+
+
 @pytest.mark.parametrize('value, warned', [
     (['red'], 'is not a list of finite RGB colours'),
     ([(float('nan'), 0.0, 0.0)], 'is not a list of finite RGB colours'),
