@@ -14,7 +14,7 @@ from __future__ import annotations
 
 from pxr import Sdf, Usd, UsdGeom, UsdShade
 
-from .texture_coordinates import shader_sources
+from .texture_coordinates import reader_varname, shader_sources
 
 DISPLAY_COLOR = 'displayColor'
 _COLOURS = {Sdf.ValueTypeNames.Color3fArray, Sdf.ValueTypeNames.Float3Array, Sdf.ValueTypeNames.Color3dArray,
@@ -52,10 +52,4 @@ def _diffuse_primvar(prim: Usd.Prim) -> str | None:
         return None
     inp = shader.GetInput('diffuseColor')
     readers = [s for s in (shader_sources(inp) if inp else []) if s.GetShaderId() == 'UsdPrimvarReader_float3']
-    varname = readers[0].GetInput('varname') if readers else None
-    for attr in varname.GetValueProducingAttributes() if varname else []:
-        value = attr.Get()
-        if value:
-            name = str(value)
-            return name[len('primvars:'):] if name.startswith('primvars:') else name
-    return None
+    return reader_varname(readers[0]) if readers else None

@@ -73,13 +73,19 @@ def _reader_name(texture: UsdShade.Shader) -> str | None:
             return None
         node = sources[0]
         if node.GetShaderId() in _READERS:
-            varname = node.GetInput('varname')
-            for attr in varname.GetValueProducingAttributes() if varname else []:
-                value = attr.Get()
-                if value:
-                    name = str(value)
-                    return name[len('primvars:'):] if name.startswith('primvars:') else name
-            return None
+            return reader_varname(node)
         if node.GetShaderId() != 'UsdTransform2d':
             return None
+    return None
+
+
+def reader_varname(reader: UsdShade.Shader) -> str | None:
+    """The primvar a UsdPrimvarReader names (its inputs:varname, through material interface inputs; a leading
+    "primvars:" dropped), or None."""
+    varname = reader.GetInput('varname')
+    for attr in varname.GetValueProducingAttributes() if varname else []:
+        value = attr.Get()
+        if value:
+            name = str(value)
+            return name[len('primvars:'):] if name.startswith('primvars:') else name
     return None
