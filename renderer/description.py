@@ -37,7 +37,9 @@ class Mesh:
     normals: Optional[np.ndarray] = None   # float32 (m, 3, 3) per-corner shading normals, container space, unit
     uvs: Optional[np.ndarray] = None       # float32 (m, 3, 2) per-corner texture coordinates (primvars:st)
     colors: Optional[np.ndarray] = None    # float32 (m, 3, 3) per-corner primvars:displayColor where it varies
-                                           # over the mesh (a material with vertex_colors multiplies its diffuse)
+                                           # over the mesh (a material with vertex_colors multiplies its diffuse);
+                                           # (m, 3, 4) with primvars:displayOpacity where that varies (a
+                                           # material with vertex_opacity multiplies its opacity by channel 3)
     material: int = -1                 # default material index (binding inside the container), -1 = none
     double_sided: bool = True
 
@@ -59,7 +61,8 @@ class Sphere:
     material: int = -1
     centers: Optional[np.ndarray] = None   # float64 (n, 3) gprim space: a point cloud
     radii: Optional[np.ndarray] = None     # float64 (n,) its spheres' radii, gprim space
-    colors: Optional[np.ndarray] = None    # float32 (n, 3) a cloud's displayColor a point, where it varies
+    colors: Optional[np.ndarray] = None    # float32 (n, 3) a cloud's displayColor a point, where it varies; (n, 4)
+                                           # with its displayOpacity, where that varies (as `Mesh.colors`)
 
     def balls(self) -> np.ndarray:
         """float64 (n, 4): each sphere's centre and radius in gprim space (one row for a lone sphere)."""
@@ -187,6 +190,7 @@ class Material:
     specular_texture: int = -1
     emission_texture: int = -1              # (multiplies emission: emissiveColor connected to a UsdUVTexture)
     vertex_colors: bool = False             # diffuse times the gprim's per-corner displayColor (Mesh.colors)
+    vertex_opacity: bool = False            # opacity times the gprim's per-corner displayOpacity (its channel 3)
     # UsdPreviewSurface roughness, metallic, opacity, clearcoat, clearcoatRoughness connected to a UsdUVTexture's
     # r, g, b or a output: its index (-1: none) and the channel (0-3) for each, in that order; the input's value (1)
     # is multiplied by it

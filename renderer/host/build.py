@@ -22,7 +22,7 @@ import numpy as np
 from .. import description as D
 from .embree import CurveGeometry, Device, InstanceGroup
 from ..kernel.trace import MASK_SURFACES
-from ..kernel.tables import LIGHT_F, MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, WRAP
+from ..kernel.tables import LIGHT_F, MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, VC_COLOR, VC_OPACITY, WRAP
 from .features import see_through
 from .gprim_tables import GprimTables
 
@@ -163,7 +163,8 @@ def _material_tables(materials: list[D.Material]):
     mat_f = np.zeros((len(mats), MATERIAL_F.width), np.float32)
     for k, m in enumerate(mats):
         MATERIAL_I.write(mat_i[k], MODEL=m.model, DIFFUSE_TEX=m.diffuse_texture, SPECULAR_TEX=m.specular_texture,
-                         EMISSION_TEX=m.emission_texture, VERTEX_COLOR=int(m.vertex_colors),
+                         EMISSION_TEX=m.emission_texture,
+                         VERTEX_COLOR=VC_COLOR * m.vertex_colors | VC_OPACITY * m.vertex_opacity,
                          SCALAR_TEX=m.scalar_textures, SCALAR_CH=m.scalar_channels, NORMAL_TEX=m.normal_texture)
         MATERIAL_F.write(mat_f[k], KD=m.diffuse, KS=m.specular, EXP=m.exponent, MIRROR=m.mirror_coef,
                          ROUGH=m.roughness, IOR=m.ior, ATTEN=m.attenuation, EMIT=m.emission, METAL=m.metallic,
@@ -565,7 +566,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         gp_n_off=np.array(tables.n_off, np.int64), gp_uv_off=np.array(tables.uv_off, np.int64),
         gp_c_off=np.array(tables.c_off, np.int64),
         tri_v=_cat(tables.tri_v, (1, 3, 3), np.float32), tri_n=_cat(tables.tri_n, (1, 3, 3), np.float32),
-        tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32), tri_c=_cat(tables.tri_c, (1, 3, 3), np.float32),
+        tri_uv=_cat(tables.tri_uv, (1, 3, 2), np.float32), tri_c=_cat(tables.tri_c, (1, 3, 4), np.float32),
         sph=np.array(tables.sph, np.float64).reshape(-1, 4) if tables.sph else np.zeros((1, 4)),
         crv=_cat(tables.crv, (1, 4, 4), np.float32), crv_n=_cat(tables.crv_n, (1, 4, 3), np.float32),
         pr_gp_start=np.array(pr_gp_start, np.int64), pr_geom_off=geom_off,

@@ -17,7 +17,7 @@ from ..kernel.features import FILTER_IDS, SAMPLER_IDS, Features, bits
 from ..kernel.tables import (C_LENS, C_ORTHO, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_MESH, GP_SPHERE,
                              LF_COURSE, LF_GAIN, LF_IES, LF_SHAPED, MF_CLEARCOAT, MF_EMIT, MF_GAIN, MF_OPACITY,
                              MF_OPACITY_CUT, MI_DIFFUSE_TEX, MI_EMISSION_TEX, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX,
-                             MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY, TI_UDIM)
+                             MI_SPECULAR_TEX, MI_VERTEX_COLOR, S_OPACITY, TI_UDIM, VC_OPACITY)
 
 
 def general_kernels() -> bool:
@@ -34,10 +34,11 @@ def constant_opacity(mf: np.ndarray) -> np.ndarray:
 
 def see_through(data) -> bool:
     """Whether a surface of the built scene tables `data` lets some rays through: a UsdPreviewSurface that
-    a gprim can have, with opacity < 1 or an opacity texture."""
+    a gprim can have, with opacity < 1, an opacity texture or per-corner opacities (`VC_OPACITY`)."""
     used = np.unique(np.concatenate([data.gp_material, data.matset[data.matset >= 0]]))
     mi, mf = data.mat_i[used], data.mat_f[used]
-    open_ = (constant_opacity(mf) < 1.0) | (mi[:, MI_SCALAR_TEX + S_OPACITY] >= 0)
+    open_ = (constant_opacity(mf) < 1.0) | (mi[:, MI_SCALAR_TEX + S_OPACITY] >= 0) | \
+        (mi[:, MI_VERTEX_COLOR] & VC_OPACITY != 0)
     return bool(np.any(open_[mi[:, MI_MODEL] == D.PREVIEW_SURFACE]))
 
 

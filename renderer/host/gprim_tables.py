@@ -3,7 +3,8 @@ as `build` converts them, and the per-primitive tables those rows point into: tr
 `tri_n`, `tri_uv`, `tri_c`), spheres (`sph`) and curve segments (`crv`).
 
 * A mesh: its triangles' vertices in object space, and per-corner normals, texture coordinates and colours
-  where it has them (`gp_n_off`, `gp_uv_off`, `gp_c_off`: its first row of each, -1 without).
+  where it has them (`gp_n_off`, `gp_uv_off`, `gp_c_off`: its first row of each, -1 without); a corner's colour is
+  RGBA (`rgba`): its displayColor and its displayOpacity, 1 where only the other varies.
 * A sphere or a point cloud: a row (centre, radius) a sphere (`gp_off`: the first), a cloud's colour a point.
 * Curves: a row of four control points (x, y, z, radius; a linear segment's two ends, then its end again) a
   segment, the same float32 numbers Embree intersects (`gp_off`: the first; flag GP_LINEAR for linear
@@ -17,6 +18,14 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import (GP_CLOUD, GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_LINEAR, GP_MESH,
                              GP_RIBBON, GP_SPHERE)
+
+
+def rgba(colors: np.ndarray | None) -> np.ndarray | None:
+    """Colours (..., 3) or (..., 4) as float32 RGBA (the `tri_c` table's rows): an opacity of 1 where none is given."""
+    if colors is None:
+        return None
+    c = np.asarray(colors, np.float32)
+    return c if c.shape[-1] == 4 else np.concatenate([c, np.ones(c.shape[:-1] + (1,), np.float32)], axis=-1)
 
 
 class GprimTables:
@@ -38,7 +47,7 @@ class GprimTables:
         self.tri_v.append(v32[tris])
         for values, flag, offsets, table in ((m.normals, GP_HAS_NORMALS, self.n_off, self.tri_n),
                                              (m.uvs, GP_HAS_UVS, self.uv_off, self.tri_uv),
-                                             (m.colors, GP_HAS_COLORS, self.c_off, self.tri_c)):
+                                             (rgba(m.colors), GP_HAS_COLORS, self.c_off, self.tri_c)):
             if values is None:                 # per-corner values: a row a triangle, from the gprim's offset
                 offsets.append(-1)
                 continue
@@ -52,7 +61,7 @@ class GprimTables:
     def add_sphere(self, center_radius: np.ndarray | None, material: int, colors=None) -> None:
         """A sphere slot: `center_radius` (n, 4), a row per sphere of the gprim (a point cloud's: its
         primitives, `shapes.surface` reads row gp_off + primID); None for a sphere moved to the unit-sphere
-        container.  `colors` (n, 3): a cloud's colour a point (rows of the per-corner table, its three corners
+        container.  `colors` (n, 3) or (n, 4): a cloud's colour a point (rows of the per-corner table, its three corners
         alike: `shapes.corner_color` reads row c_off + primID)."""
         self.kind.append(GP_SPHERE)
         self.material.append(material)
@@ -63,7 +72,7 @@ class GprimTables:
         self.uv_off.append(-1)
         if coloured:
             self.c_off.append(self._rows.get(id(self.tri_c), 0))
-            self.tri_c.append(np.repeat(np.asarray(colors, np.float32)[:, None, :], 3, axis=1))
+            self.tri_c.append(np.repeat(rgba(colors)[:, None, :], 3, axis=1))
             self._rows[id(self.tri_c)] = self.c_off[-1] + len(colors)
         else:
             self.c_off.append(-1)
@@ -91,7 +100,7 @@ class GprimTables:
         if c.colors is not None:
             flags |= GP_HAS_COLORS
             self.c_off.append(self._rows.get(id(self.tri_c), 0))
-            self.tri_c.append(np.concatenate([c.colors, c.colors[:, 1:]], axis=1).astype(np.float32))
+            self.tri_c.append(rgba(np.concatenate([c.colors, c.colors[:, 1:]], axis=1)))
             self._rows[id(self.tri_c)] = self.c_off[-1] + len(rows)
         else:
             self.c_off.append(-1)

@@ -72,9 +72,9 @@ import numpy as np
 
 from .. import description as D
 from ..kernel.tables import (CURVE_CAP, CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON,
-                             GP_SPHERE, MF_EMIT, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, S_OPACITY, SLI_GPRIM,
-                             SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT, TI_OFFSET,
-                             TI_UDIM, TI_UDIM_ROWS, TI_WIDTH)
+                             GP_SPHERE, MF_EMIT, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, MI_VERTEX_COLOR, S_OPACITY,
+                             SLI_GPRIM, SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT,
+                             TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH, VC_OPACITY)
 from . import curve_caps
 from .features import constant_opacity
 from .light_tree import ENTIRE
@@ -154,8 +154,9 @@ def _emitting(data, rows: np.ndarray, slot: int, g: int, means: dict):
             means[int(k)] = texture_mean(data, int(k))
         mean[tex == k] = means[int(k)]
     lum = (np.abs(emit) * mean) @ _LUM
-    # an opacity texture: the kernel multiplies the emission by the material's opacity at each point (column 5)
-    cut = (data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0) & (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE)
+    # an opacity texture or per-corner opacities: the kernel multiplies the emission by the opacity at each point
+    cut = ((data.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0) | (data.mat_i[mat, MI_VERTEX_COLOR] & VC_OPACITY != 0)) & \
+        (data.mat_i[mat, MI_MODEL] == D.PREVIEW_SURFACE)
     return (np.column_stack([emit, tex, lum, np.where(cut, mat, -1), mat]),
             (lum > 0.0) & np.all(np.isfinite(emit), 1))
 

@@ -48,9 +48,9 @@ from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
                       Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
-from .shapes import corner_color, hit_gprim, surface
+from .shapes import corner_color, corner_opacity, hit_gprim, surface
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX, MI_VERTEX_COLOR,
-                     S_OPACITY)
+                     S_OPACITY, VC_COLOR)
 from .tiles import claim_tile
 from .trace import (MASK, MASK_ALL, PACKET, TFAR, alloc_packet, alloc_ray_buffer, hit_of, intersect1,
                     intersect_packet_coherent, lane_hit, occluded1, occluded_packet, set_packet_ray, slot)
@@ -222,10 +222,11 @@ def _shading_point(S, tr, ray, time):
         ns = ng
     wo = (-dvec[0], -dvec[1], -dvec[2])
     kd, ks = colors(S, mat, st)
-    if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] != 0:        # (the displayColor fallback: a mesh's, a cloud's)
+    if F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] & VC_COLOR:   # (the displayColor fallback: a mesh's, a cloud's)
         c = corner_color(S, g, hit)
         kd = (kd[0] * c[0], kd[1] * c[1], kd[2] * c[2])
-    return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks, scalars(S, mat, st))
+    rmo = scalars(S, mat, st, corner_opacity(S, mat, g, hit.prim_id, hit.u, hit.v))
+    return ShadingPoint(p, ng, ns, st, mat, model, front, wo, kd, ks, rmo)
 
 
 @nb.njit(**STAGE_JIT)
@@ -249,13 +250,13 @@ def blocking_opacity(S, tr, o, d, time):
     """The opacity a shadow ray (o, d) meets at its hit (in the tracer's ray buffer): a UsdPreviewSurface's (at the
     hit's texture coordinates where a texture drives it), 1 for any other surface (course materials stop it)."""
     hit = hit_of(tr.f, tr.u)
-    mat = hit_gprim(S, hit)[2]
+    g, mat = hit_gprim(S, hit)[1:]
     if S.mat_i[mat, MI_MODEL] != D.PREVIEW_SURFACE:
         return 1.0
     st = (0.0, 0.0)
     if F_TEXTURES and S.mat_i[mat, MI_SCALAR_TEX + S_OPACITY] >= 0:
         st = surface(S, tr.scene, hit, o, d, time, tr.m, tr.m32)[3]
-    return opacity(S, mat, st)
+    return opacity(S, mat, st, corner_opacity(S, mat, g, hit.prim_id, hit.u, hit.v))
 
 
 @nb.njit(**SHADING_INLINE_JIT)

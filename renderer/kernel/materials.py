@@ -61,17 +61,19 @@ def scalar(S, mat, st, col, k):
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def scalars(S, mat, st):
+def scalars(S, mat, st, corner):
     """(roughness, metallic, opacity) of material mat at texture coordinates st: its inputs, times their
-    textures there where textures drive them (`ShadingPoint.rmo`)."""
-    return scalar(S, mat, st, MF_ROUGH, S_ROUGH), scalar(S, mat, st, MF_METAL, S_METAL), opacity(S, mat, st)
+    textures there where textures drive them (`ShadingPoint.rmo`); `corner`: as `opacity`."""
+    return (scalar(S, mat, st, MF_ROUGH, S_ROUGH), scalar(S, mat, st, MF_METAL, S_METAL),
+            opacity(S, mat, st, corner))
 
 
 @nb.njit(**SHADING_INLINE_JIT)
-def opacity(S, mat, st):
-    """Material mat's opacity at texture coordinates st (its texture's channel there where one drives it);
-    with an opacityThreshold > 0, 0 below the threshold and 1 at or above it (a cut-out, as Storm masks)."""
-    a = scalar(S, mat, st, MF_OPACITY, S_OPACITY)
+def opacity(S, mat, st, corner):
+    """Material mat's opacity at texture coordinates st (its texture's channel there where one drives it), times
+    `corner`, the gprim's per-corner opacity there (`shapes.corner_opacity`: 1 where it has none); with an
+    opacityThreshold > 0, 0 below the threshold and 1 at or above it (a cut-out, as Storm masks)."""
+    a = scalar(S, mat, st, MF_OPACITY, S_OPACITY) * corner
     cut = float(S.mat_f[mat, MF_OPACITY_CUT])
     if cut > 0.0:
         a = 1.0 if a >= cut else 0.0

@@ -17,10 +17,10 @@ import math
 import numba as nb
 
 from .curves import surface_point
-from .features import F_CURVES, F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
+from .features import F_COLORS, F_CURVES, F_NORMALS, F_SPHERES, F_TEXTURES, F_UVS, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT
 from .tables import (GP_CURVES, GP_HAS_COLORS, GP_HAS_NORMALS, GP_HAS_UVS, GP_SPHERE, MI_DIFFUSE_TEX, MI_EMISSION_TEX,
-                     MI_NORMAL_TEX, MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX)
+                     MI_NORMAL_TEX, MI_SCALAR_CH, MI_SCALAR_TEX, MI_SPECULAR_TEX, MI_VERTEX_COLOR, VC_OPACITY)
 from .trace import instance_transform
 from .vecmath import cofactor_dir, cross, inverse_xform, lerp_xf, normalize, xform_point
 
@@ -66,6 +66,24 @@ def corner_color(S, g, hit):
                 w0 * c[k, 0, 1] + hit.u * c[k, 1, 1] + hit.v * c[k, 2, 1],
                 w0 * c[k, 0, 2] + hit.u * c[k, 1, 2] + hit.v * c[k, 2, 2])
     return 1.0, 1.0, 1.0
+
+
+@nb.njit(**SHADING_INLINE_JIT)
+def corner_opacity(S, mat, g, prim_id, u, v):
+    """The per-corner opacity material mat multiplies its opacity by (`materials.opacity`) at the point (u, v) of
+    primitive prim_id of gprim g (Embree's barycentrics, or a curve's u): the A of the gprim's `tri_c` rows there,
+    interpolated as `corner_color` interpolates their RGB, where mat reads it (bit VC_OPACITY of MI_VERTEX_COLOR:
+    the fallback material of a mesh or cloud whose displayOpacity varies, or a reader of it); else 1."""
+    if not (F_COLORS and S.mat_i[mat, MI_VERTEX_COLOR] & VC_OPACITY and S.gp_flags[g] & GP_HAS_COLORS):
+        return 1.0
+    k = S.gp_c_off[g] + prim_id
+    c = S.tri_c
+    if S.gp_kind[g] == GP_SPHERE:
+        return float(c[k, 0, 3])
+    if F_CURVES and S.gp_kind[g] == GP_CURVES:
+        t = min(1.0, max(0.0, u))
+        return (1.0 - t) * c[k, 0, 3] + t * c[k, 1, 3]
+    return (1.0 - u - v) * c[k, 0, 3] + u * c[k, 1, 3] + v * c[k, 2, 3]
 
 
 @nb.njit(**SHADING_INLINE_JIT)

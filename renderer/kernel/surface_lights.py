@@ -41,7 +41,7 @@ from .features import F_CURVES, F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
 from .light_tree import light_pmf
 from .materials import opacity
-from .shapes import sphere_st, triangle_st
+from .shapes import corner_opacity, sphere_st, triangle_st
 from .tables import (CAP_PLANES, CURVE_CAP, CURVE_LINEAR, GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER,
                      SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_CAP0, SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID,
                      SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
@@ -396,8 +396,8 @@ def _st_at(S, L, j, at):
 @nb.njit(**_JIT)
 def _emission_at(S, L, j, at):
     """The radiance of surface light j at a point of it, `at` (`_st_at`): its factor, times its emissiveColor
-    texture there, times its material's textured opacity there (a(x) E(x): what rays, which find the point with
-    probability a(x), see on average)."""
+    texture there, times its material's textured (or per-corner) opacity there (a(x) E(x): what rays, which find the
+    point with probability a(x), see on average)."""
     Le = (L.sl_f[j, SLF_RAD], L.sl_f[j, SLF_RAD + 1], L.sl_f[j, SLF_RAD + 2])
     tex, mat = L.sl_i[j, SLI_EMISSION_TEX], L.sl_i[j, SLI_OPACITY_MAT]
     if not (F_TEXTURES and (tex >= 0 or mat >= 0)):
@@ -407,7 +407,9 @@ def _emission_at(S, L, j, at):
         c = sample_texture(S, tex, st[0], st[1])
         Le = (Le[0] * c[0], Le[1] * c[1], Le[2] * c[2])
     if mat >= 0:
-        a = opacity(S, mat, st)
+        mesh = L.sl_i[j, SLI_COUNT] != 0
+        corner = corner_opacity(S, mat, L.sl_i[j, SLI_GPRIM], int(at[0]), at[1], at[2]) if mesh else 1.0
+        a = opacity(S, mat, st, corner)
         Le = (Le[0] * a, Le[1] * a, Le[2] * a)
     return Le
 

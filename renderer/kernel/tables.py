@@ -9,7 +9,8 @@ Tables (arrays of `SceneData`, and the camera table):
 
 * `MATERIAL_F` (MF_*, `mat_f` float32): colours and scalars of a material.
 * `MATERIAL_I` (MI_*, `mat_i` int32): the shading model, texture ids (-1 = none), whether the diffuse
-  colour is multiplied by the gprim's per-corner displayColor (VERTEX_COLOR), and the textures and channels
+  colour (bit VC_COLOR) and the opacity (VC_OPACITY) are multiplied by the gprim's per-corner displayColor and
+  displayOpacity (VERTEX_COLOR: the RGB and the A of its `tri_c` rows), and the textures and channels
   that multiply roughness, metallic, opacity, clearcoat and clearcoatRoughness (SCALAR_TEX, SCALAR_CH: S_ROUGH,
   S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH), and the texture of its tangent-space normal (NORMAL_TEX).
 * `LIGHT_F` (LF_*, `li_f` float64): light-to-world 3x4 (camera-relative), radiance, sizes, cone, area.
@@ -67,6 +68,7 @@ MATERIAL_F = Table('MF', [('KD', 3), ('KS', 3), ('EXP', 1), ('MIRROR', 1), ('ROU
 MATERIAL_I = Table('MI', [('MODEL', 1), ('DIFFUSE_TEX', 1), ('SPECULAR_TEX', 1), ('EMISSION_TEX', 1),
                           ('VERTEX_COLOR', 1), ('SCALAR_TEX', 5), ('SCALAR_CH', 5),
                           ('NORMAL_TEX', 1)])
+VC_COLOR, VC_OPACITY = 1, 2                   # the bits of MI_VERTEX_COLOR
 # the inputs of MI_SCALAR_TEX / MI_SCALAR_CH (a texture and the channel of it that multiplies each), in order
 S_ROUGH, S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH = 0, 1, 2, 3, 4
 # COURSE: 1 for a course light (RtcCourseLightAPI), whose course intensity COURSE_I the cook integrator
@@ -142,4 +144,5 @@ __all__ = ['Table', 'MATERIAL_F', 'MATERIAL_I', 'LIGHT_F', 'TEXTURE_I', 'TEXTURE
            'S_OPACITY', 'S_CLEARCOAT', 'S_CC_ROUGH', *(name for t in TABLES for name in t.constants()), 'MAT_F_COLS', 'MAT_I_COLS',
            'LI_F_COLS', 'TEX_I_COLS', 'TEX_F_COLS', 'CAM_COLS', 'GP_MESH', 'GP_SPHERE', 'GP_CURVES',
            'GP_HAS_NORMALS', 'GP_LINEAR', 'GP_RIBBON', 'CURVE_CUBIC', 'CURVE_LINEAR', 'CURVE_CAP', 'CAP_PLANES',
-           'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'WRAP_REPEAT', 'WRAP_CLAMP', 'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']
+           'GP_HAS_UVS', 'GP_CLOUD', 'GP_HAS_COLORS', 'VC_COLOR', 'VC_OPACITY', 'WRAP_REPEAT', 'WRAP_CLAMP',
+           'WRAP_MIRROR', 'WRAP_BLACK', 'WRAP']

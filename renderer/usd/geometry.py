@@ -24,10 +24,11 @@ from __future__ import annotations
 from typing import Callable
 
 import numpy as np
-from pxr import Tf, Usd, UsdGeom
+from pxr import Usd, UsdGeom
 
 from ..description import FLOAT32_MAX, Mesh, Sphere
-from .corner_colours import DISPLAY_COLOR, corner_colour_name
+from .corner_primvars import DISPLAY_COLOR, DISPLAY_OPACITY, corner_colour_name, corner_opacity_name
+from .primvar_values import flattened, per_corner
 from .texture_coordinates import uv_primvar
 
 Warn = Callable[[str], None]
@@ -94,54 +95,6 @@ def _fan(counts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return face, np.stack([first, first + j + 1, first + j + 2], axis=1)
 
 
-def _per_corner(values, interpolation: str, face: np.ndarray, corner: np.ndarray,
-                vertex_of_corner: np.ndarray, n_points: int, n_faces: int) -> np.ndarray | None:
-    """Expand a (flattened) primvar to per-triangle-corner values (m, 3, k); None if its length
-    does not match its interpolation."""
-    v = np.asarray(values, np.float64)
-    if v.ndim == 1:
-        v = v[:, None]
-    n = len(v)
-    if interpolation == UsdGeom.Tokens.constant and n >= 1:
-        return np.broadcast_to(v[0], (len(face), 3, v.shape[1])).copy()
-    if interpolation == UsdGeom.Tokens.uniform and n == n_faces:
-        return np.repeat(v[face][:, None, :], 3, axis=1)
-    if interpolation in (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying) and n >= n_points:
-        return v[vertex_of_corner[corner]]
-    if interpolation == UsdGeom.Tokens.faceVarying and n == len(vertex_of_corner):
-        return v[corner]
-    return None
-
-
-def flattened(pv: UsdGeom.Primvar, time, warn: Warn, consequence: str):
-    """A primvar's values expanded through its indices, or None with one warning naming the prim
-    and the attribute and saying in words what is wrong (an index past the values, an element
-    size other than one, values that are not an array): the attribute is lost, not the prim."""
-    where = f'{pv.GetAttr().GetPrim().GetPath()}: {pv.GetAttr().GetName()}'
-    size = pv.GetElementSize()
-    try:
-        values = pv.ComputeFlattened(time)
-    except Tf.ErrorException:
-        values = None
-    if values is None or not hasattr(values, '__len__') or isinstance(values, str):    # (authored as a string)
-        raw = pv.Get(time)
-        count = len(raw) if hasattr(raw, '__len__') else 0
-        if pv.IsIndexed():
-            indices = np.asarray(pv.GetIndices(time), np.int64)
-            top = int(indices.max()) if len(indices) else -1
-            noun = 'value' if count == 1 else 'values'
-            why = (f'its indices reach {top} but it has {count} {noun}' if size == 1 else
-                   f'its {len(indices)} indices of elements of {size} values do not fit its {count} {noun}')
-        else:
-            why = 'it has no readable array of values'
-        warn(f'{where} cannot be used ({why}); {consequence}')
-        return None
-    if size != 1:
-        warn(f'{where} has element size {size} (one value per element expected); {consequence}')
-        return None
-    return values
-
-
 def _authored_normals(mesh: UsdGeom.PointBased, time, warn: Warn):
     """(values, interpolation) of primvars:normals if authored, else of `normals`, else None;
     ((), None) when authored but unusable (already warned about)."""
@@ -162,21 +115,64 @@ def _authored_normals(mesh: UsdGeom.PointBased, time, warn: Warn):
 
 def varying_display_color(prim: Usd.Prim, time, name: str = DISPLAY_COLOR):
     """(values (k, 3), interpolation) of a Mesh's, Points' or BasisCurves' own primvars:displayColor (or the colour
-    primvar `name`: `corner_colours`) where it varies over it (an interpolation other than constant, two or more
+    primvar `name`: `corner_primvars`) where it varies over it (an interpolation other than constant, two or more
     distinct finite colours), else None.  Such a mesh keeps its colours per triangle corner (`Mesh.colors`), a cloud
     a colour a point (`Sphere.colors`), curves a colour at each segment end (`Curves.colors`), which a material
     fallback shades by (`materials.fallback`: its one test of the same prim, so that the two agree) or a material
-    that reads that primvar (`materials.Materials._primvar_value`)."""
-    if implicit_type(prim) not in VARYING_COLOUR_TYPES:
+    that reads that primvar (`materials.MaterialTable._primvar_value`)."""
+    return _varying(prim, time, name, 3, VARYING_COLOUR_TYPES)
+
+
+def varying_display_opacity(prim: Usd.Prim, time, name: str = DISPLAY_OPACITY):
+    """(values (k,) clamped to [0, 1], interpolation) of a Mesh's or Points' own primvars:displayOpacity (or the
+    scalar primvar `name`: `corner_primvars`) where it varies over it, else None.  Such a mesh keeps it per triangle
+    corner, a cloud a value a point (the fourth channel of `Mesh.colors` / `Sphere.colors`), which the fallback
+    material or a material that reads it for its opacity multiplies its opacity by.  Curves keep none (a reader of
+    one reads its mean, warned)."""
+    v = _varying(prim, time, name, 1, VARYING_OPACITY_TYPES)
+    return None if v is None else (np.clip(v[0][:, 0], 0.0, 1.0), v[1])
+
+
+def _varying(prim: Usd.Prim, time, name: str, width: int, types: tuple):
+    """(values (k, width), interpolation) of prim's own primvar `name` where prim is one of `types` and the primvar
+    has an interpolation other than constant and two or more distinct finite values of `width` numbers, else None."""
+    if implicit_type(prim) not in types:
         return None
     pv = UsdGeom.PrimvarsAPI(prim).GetPrimvar(name)
     if not pv or not pv.HasAuthoredValue() or pv.GetInterpolation() == UsdGeom.Tokens.constant:
         return None
     values = flattened(pv, time, lambda message: None, '')      # (unreadable: `fallback` warns)
     v = np.asarray([] if values is None else values, np.float64)
-    if v.ndim != 2 or v.shape[1] != 3 or len(v) < 2 or not np.all(np.isfinite(v)) or np.all(v == v[0]):
+    v = v[:, None] if width == 1 and v.ndim == 1 else v
+    if v.ndim != 2 or v.shape[1] != width or len(v) < 2 or not np.all(np.isfinite(v)) or np.all(v == v[0]):
         return None
     return v, pv.GetInterpolation()
+
+
+def corner_values(prim: Usd.Prim, time, expand, shape: tuple, misfit, warn: Warn):
+    """The colours, and the opacities, that `prim` keeps per corner (`corner_primvars`) where they vary over it,
+    float32 (*shape, 3), or (*shape, 4) with the opacity (its colours white where only that varies); None where
+    neither does.  `expand(values, interpolation)` gives a primvar's values per corner (`shape`), or None where their
+    count does not fit its interpolation (then their mean is used, warned: `misfit(count, interpolation)` says how)."""
+    parts = []
+    for name, varying, width in ((corner_colour_name(prim), varying_display_color, 3),
+                                 (corner_opacity_name(prim), varying_display_opacity, 1)):
+        v = varying(prim, time, name)
+        values = None if v is None else expand(v[0], v[1])
+        if v is not None and values is None:
+            warn(f'{prim.GetPath()}: primvars:{name}: {misfit(len(v[0]), v[1])}; '
+                 f'their mean {"colour" if width == 3 else "opacity"} used')
+            values = np.broadcast_to(v[0].mean(0), shape + (width,))
+        parts.append(None if values is None else np.asarray(values, np.float64).reshape(shape + (width,)))
+    colours, opacities = parts
+    if opacities is not None:
+        colours = np.concatenate([np.ones(shape + (3,)) if colours is None else colours, opacities], axis=-1)
+    return None if colours is None else np.ascontiguousarray(colours, np.float32)
+
+
+def _misfit(where: str):
+    """The words of `corner_values`'s warning where a primvar's count does not fit its interpolation on a mesh."""
+    return lambda n, how: f'{n} values do not match interpolation "{how}"{where}'
 
 
 def _mesh(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, posed=None) -> list[Mesh]:
@@ -221,7 +217,7 @@ def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, s
     normals, dropped = None, False
     authored = None if posed is not None else _authored_normals(pb, time, warn)
     if authored is not None and authored[1] is not None:
-        normals = _per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
+        normals = per_corner(authored[0], authored[1], face, corner, indices, len(points), len(counts))
         if normals is None:
             warn(f'{path}: {len(authored[0])} normals do not match interpolation '
                  f'"{authored[1]}" ({len(points)} points, {len(counts)} faces, {len(indices)} face '
@@ -232,19 +228,12 @@ def polygons(prim: Usd.Prim, m: np.ndarray, time, warn: Warn, topology: tuple, s
     if st is not None:
         values = flattened(st, time, warn, 'texture coordinates ignored')
         if values is not None:
-            uvs = _per_corner(values, st.GetInterpolation(), face, corner, indices, len(points), len(counts))
+            uvs = per_corner(values, st.GetInterpolation(), face, corner, indices, len(points), len(counts))
             if uvs is None:
                 warn(f'{path}: primvars:{st.GetPrimvarName()}: {len(values)} values do not match '
                      f'interpolation "{st.GetInterpolation()}"; texture coordinates ignored')
-    colors = None
-    kept = corner_colour_name(prim)
-    varying = varying_display_color(prim, time, kept)
-    if varying is not None:
-        colors = _per_corner(varying[0], varying[1], face, corner, indices, len(points), len(counts))
-        if colors is None:
-            warn(f'{path}: primvars:{kept}: {len(varying[0])} values do not match interpolation '
-                 f'"{varying[1]}"; their mean colour used')
-            colors = np.broadcast_to(varying[0].mean(0), (len(face), 3, 3)).copy()
+    colors = corner_values(prim, time, lambda v, how: per_corner(v, how, face, corner, indices, len(points),
+                                                                 len(counts)), (len(face), 3), _misfit(''), warn)
     smooth = normals is None and (dropped or subdivided)
     whole = _finish(path, points, indices[corner], normals, uvs, m, smooth, _double_sided(prim), colors)
 
@@ -466,10 +455,9 @@ def _cube(prim, m, time, warn):
             for (su, sv), t in zip(((-1, -1), (1, -1), (1, 1), (-1, 1)), ((0, 0), (1, 0), (1, 1), (0, 1))):
                 pts.append(half * (n + su * u + sv * v)); nrm.append(n); uv.append(t)
             tris += [(base, base + 1, base + 2), (base, base + 2, base + 3)]
-    varying = varying_display_color(prim, time)
+    varying = varying_display_color(prim, time) is not None or varying_display_opacity(prim, time) is not None
     return _quadric(prim, m, [(np.array(pts), np.array(tris), np.array(nrm), np.array(uv, float))],
-                    'Z', _double_sided(prim), None if varying is None else lambda p, t: _cube_colours(
-                        p, varying, str(prim.GetPath()), warn))
+                    'Z', _double_sided(prim), (lambda p, t: _cube_colours(p, prim, time, warn)) if varying else None)
 
 
 # Hydra's cube (GeomUtilCuboidMeshGenerator): its 8 corners' signs and its 6 quads, the order in which a Cube's
@@ -479,9 +467,10 @@ HYDRA_CUBE_CORNERS = np.array([(1, 1, 1), (-1, 1, 1), (-1, -1, 1), (1, -1, 1),
 HYDRA_CUBE_QUADS = np.array([(0, 1, 2, 3), (4, 5, 6, 7), (0, 6, 5, 1), (4, 7, 3, 2), (0, 3, 7, 6), (4, 2, 1, 5)])
 
 
-def _cube_colours(pts: np.ndarray, varying: tuple, path: str, warn: Warn):
+def _cube_colours(pts: np.ndarray, prim: Usd.Prim, time, warn: Warn):
     """A cube's triangles over its 24 points (4 a face, in faces' order) split as Storm splits Hydra's quads,
-    (0, 1, 2) and (0, 2, 3), and the displayColor at their corners, read in the order of Hydra's cube."""
+    (0, 1, 2) and (0, 2, 3), and the displayColor and displayOpacity at their corners (`corner_values`), read in the
+    order of Hydra's cube."""
     corner = np.argmax(np.all(np.sign(pts)[:, None, :] == HYDRA_CUBE_CORNERS[None], axis=2), axis=1)
     centre = pts.reshape(6, 4, 3).mean(axis=1)            # (the points come 4 a face)
     tris, face, fv = [], [], []
@@ -493,11 +482,8 @@ def _cube_colours(pts: np.ndarray, varying: tuple, path: str, warn: Warn):
         face += [f, f]
         fv += [(4 * f, 4 * f + 1, 4 * f + 2), (4 * f, 4 * f + 2, 4 * f + 3)]
     tris, face, fv = np.array(tris), np.array(face), np.array(fv)
-    colors = _per_corner(varying[0], varying[1], face, fv, HYDRA_CUBE_QUADS.reshape(-1), 8, 6)
-    if colors is None:
-        warn(f'{path}: primvars:displayColor: {len(varying[0])} values do not match interpolation '
-             f'"{varying[1]}" on a cube (6 faces, 8 points, 24 face corners); their mean colour used')
-        colors = np.broadcast_to(varying[0].mean(0), (len(tris), 3, 3)).copy()
+    colors = corner_values(prim, time, lambda v, how: per_corner(v, how, face, fv, HYDRA_CUBE_QUADS.reshape(-1), 8, 6),
+                           (len(tris), 3), _misfit(' on a cube (6 faces, 8 points, 24 face corners)'), warn)
     return tris, colors
 
 
@@ -544,15 +530,9 @@ def _points(prim, m, time, warn, posed=None):
     g = m[:3, :3].T @ m[:3, :3]
     if not np.allclose(g, np.trace(g) / 3.0 * np.eye(3), rtol=1e-6, atol=1e-12 * abs(np.trace(g))):
         warn(f'{path}: a non-uniform scale; its points stay spheres, their widths scaled by its mean scale')
-    colors = None
-    varying = varying_display_color(prim, time)
-    if varying is not None:                          # (every interpolation but constant is a value a point)
-        colors = varying[0][:len(p)] if len(varying[0]) >= len(p) else None
-        if colors is None:
-            warn(f'{path}: primvars:displayColor: {len(varying[0])} values for {len(p)} points; their mean colour '
-                 'used')
-            colors = np.broadcast_to(varying[0].mean(0), (len(p), 3))
-        colors = np.ascontiguousarray(colors[ok], np.float32)
+    colors = corner_values(prim, time, lambda v, how: v[:len(p)] if len(v) >= len(p) else None, (len(p),),
+                           lambda n, how: f'{n} values for {len(p)} points', warn)   # (any interpolation but constant)
+    colors = None if colors is None else np.ascontiguousarray(colors[ok])
     return [Sphere(path=path, radius=float(r[ok].max()), matrix=np.array(m, np.float64),
                    centers=np.ascontiguousarray(p[ok]), radii=np.ascontiguousarray(r[ok]), colors=colors)]
 
@@ -588,3 +568,4 @@ _CONVERTERS = {
 _POSABLE = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch')
 # gprims whose records keep a displayColor that varies over them (a course sphere written as a Mesh: a Sphere)
 VARYING_COLOUR_TYPES = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch', 'Cube')
+VARYING_OPACITY_TYPES = ('Mesh', 'Points', 'TetMesh', 'NurbsPatch', 'Cube')

@@ -14,7 +14,7 @@ from typing import Callable, Optional
 import numpy as np
 from pxr import Usd, UsdGeom, UsdShade
 
-from .geometry import flattened
+from .primvar_values import flattened
 
 PER_INSTANCE = (UsdGeom.Tokens.vertex, UsdGeom.Tokens.varying, UsdGeom.Tokens.uniform)
 # Instances given the same values share a material set; each distinct set of values is resolved on its own (a

@@ -35,8 +35,9 @@ from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
 from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
-from .corner_colours import corner_colour_name
-from .geometry import flattened, varying_display_color
+from .corner_primvars import DISPLAY_OPACITY, corner_colour_name, corner_opacity_name
+from .geometry import varying_display_color, varying_display_opacity
+from .primvar_values import flattened
 
 Warn = Callable[[str], None]
 GREY = (0.18, 0.18, 0.18)
@@ -110,11 +111,14 @@ class MaterialTable:
         converted, inputs = self._template(material)
         if converted is None:
             return None
-        values = tuple(self._primvar_value(gprim, r, given) for r in inputs)
+        glows = any(converted.emission) or converted.emission_texture >= 0
+        values = tuple(self._primvar_value(gprim, r, given, glows) for r in inputs)
         if (key, values) not in self._index:
             fields = {}
             for r, v in zip(inputs, values):
-                if isinstance(v, str):                   # per corner: the mesh's colours times white
+                if isinstance(v, str) and r.field == 'opacity':      # per corner: 1 times the gprim's opacities
+                    fields.update({r.field: 1.0, 'vertex_opacity': True})
+                elif isinstance(v, str):                 # per corner: the mesh's colours times white
                     fields.update({r.field: (1.0, 1.0, 1.0), 'vertex_colors': True})
                 else:
                     fields[r.field] = v
@@ -159,12 +163,15 @@ class MaterialTable:
                 return np.asarray([values], np.float64), None
         return None, found
 
-    def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput, given: dict | None = None):
+    def _primvar_value(self, gprim: Usd.Prim | None, r: PrimvarInput, given: dict | None = None,
+                       glows: bool = False):
         """The value a UsdPrimvarReader reads on `gprim` (a GeomSubset: its mesh's): its primvar r.varname
         (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
-        curves' displayColor that varies over them (their per-corner colours, `geometry.varying_display_color`; a
-        mesh's: the colour primvar it keeps per corner, `corner_colours`);
-        the mean, warned, for another that varies; the reader's fallback where the gprim has none (as Storm)."""
+        curves' displayColor that varies over them read for the diffuse colour (their per-corner colours,
+        `geometry.varying_display_color`; a mesh's: the colour primvar it keeps per corner, `corner_primvars`), and
+        for a mesh's or a cloud's displayOpacity read for the opacity (`geometry.varying_display_opacity`; not a
+        cloud's whose material `glows`: its balls are lights of one emission each); the mean, warned, for another
+        that varies; the reader's fallback where the gprim has none (as Storm)."""
         if gprim is None or not r.varname:
             return r.fallback
         prim = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
@@ -186,39 +193,68 @@ class MaterialTable:
             if r.field == 'diffuse' and r.varname == corner_colour_name(prim) and \
                     varying_display_color(prim, self.time, r.varname) is not None:
                 return 'per corner'
+            if r.field == 'opacity' and r.varname == corner_opacity_name(prim) and \
+                    varying_display_opacity(prim, self.time, r.varname) is not None and \
+                    not (glows and prim.IsA(UsdGeom.Points)):
+                return 'per corner'
             self.warn(f'{prim.GetPath()}: {name} varies over it ({pv.GetInterpolation()}); {r.reader} reads its '
                       'mean')
             v = v.mean(axis=0, keepdims=True)
         return tuple(float(x) for x in v[0]) if width == 3 else float(v[0, 0])
 
     def fallback(self, gprim: Usd.Prim, given: dict | None = None) -> int:
-        """The displayColor (or grey) material of a gprim with no usable bound material: a mesh whose
-        displayColor varies over it (`geometry.varying_display_color`; a materialBind GeomSubset: its mesh's)
-        gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), as Storm draws it; a point
-        cloud's, its colour a point (`Sphere.colors`); `given`: as `bound`."""
+        """The material of a gprim with no usable bound material, as Storm's fallback draws it: a UsdPreviewSurface
+        of diffuse colour primvars:displayColor (or grey) and opacity primvars:displayOpacity (or 1), roughness 1.  A
+        mesh whose displayColor varies over it (`geometry.varying_display_color`; a materialBind GeomSubset: its
+        mesh's) gets a white diffuse that its per-corner colours multiply (`Mesh.colors`), a point cloud its colour
+        a point (`Sphere.colors`); one whose displayOpacity varies, an opacity of 1 that its per-corner opacities
+        multiply (`geometry.varying_display_opacity`); `given`: as `bound`."""
         mesh = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
-        if varying_display_color(mesh, self.time) is not None:
-            key = ('displayColor', 'per corner')
-            if key not in self._index:
-                self._index[key] = self._add(Material(path='<displayColor per corner>', diffuse=(1.0, 1.0, 1.0),
-                                                      roughness=1.0, vertex_colors=True))
-            return self._index[key]
-        colour = GREY
-        values, pv = self._given_or_found(gprim, 'displayColor', given)
-        if values is not None or pv is not None:
-            values = self._values(pv, 'grey used instead') if pv is not None else values
-            if values is None or values.ndim != 2 or values.shape[1] != 3:
-                if values is None or values.size:
-                    name = pv.GetAttr().GetName() if pv is not None else 'primvars:displayColor'
-                    self.warn(f'{gprim.GetPath()}: {name} is not a list of RGB colours; grey used instead')
-                values = np.empty((0, 3))
-            if len(values) and np.all(np.isfinite(values)):
-                colour = tuple(float(x) for x in values.mean(axis=0))
-        key = ('displayColor', colour)
+        corner_colour = varying_display_color(mesh, self.time) is not None
+        corner_opacity = varying_display_opacity(mesh, self.time) is not None
+        colour = (1.0, 1.0, 1.0) if corner_colour else self._display_value(gprim, given, 'displayColor', GREY)
+        opacity = 1.0 if corner_opacity else self._display_value(gprim, given, DISPLAY_OPACITY, 1.0)
+        key = ('displayColor', 'per corner' if corner_colour else colour, 'per corner' if corner_opacity else opacity)
         if key not in self._index:
-            label = '<grey>' if colour == GREY else f'<displayColor {colour[0]:.3g} {colour[1]:.3g} {colour[2]:.3g}>'
-            self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0))
+            label = ('<displayColor per corner>' if corner_colour else '<grey>' if colour == GREY else
+                     f'<displayColor {colour[0]:.3g} {colour[1]:.3g} {colour[2]:.3g}>')
+            label += ' <displayOpacity per corner>' if corner_opacity else '' if opacity == 1.0 else \
+                f' <displayOpacity {opacity:.3g}>'
+            self._index[key] = self._add(Material(path=label, diffuse=colour, roughness=1.0, opacity=opacity,
+                                                  vertex_colors=corner_colour, vertex_opacity=corner_opacity))
         return self._index[key]
+
+    def _display_value(self, gprim: Usd.Prim, given: dict | None, name: str, default):
+        """gprim's primvars:displayColor (an RGB tuple) or displayOpacity (a float, clamped to [0, 1]) where it does
+        not keep them per corner, as the fallback material reads them: its value (the first of a constant primvar's
+        several, as Storm), or the mean of those of one that varies; `default` where it has none (and, warned, where
+        they are not numbers of the kind)."""
+        width = 1 if name == DISPLAY_OPACITY else 3
+        values, pv = self._given_or_found(gprim, name, given)
+        if values is None and pv is None:
+            return default
+        instead = 'grey used instead' if width == 3 else 'opacity 1 used instead'
+        values = self._values(pv, instead) if pv is not None else values
+        if values is not None and values.ndim == 1 and width == 1:
+            values = values[:, None]
+        if values is None or values.ndim != 2 or values.shape[1] != width:
+            if values is None or values.size:
+                attr = pv.GetAttr().GetName() if pv is not None else f'primvars:{name}'
+                what = 'RGB colours' if width == 3 else 'numbers'
+                self.warn(f'{gprim.GetPath()}: {attr} is not a list of {what}; {instead}')
+            return default
+        if not len(values) or not np.all(np.isfinite(values)):
+            return default
+        where = f'{gprim.GetPath()}: {pv.GetAttr().GetName() if pv is not None else "primvars:" + name}'
+        if pv is not None and pv.GetInterpolation() == UsdGeom.Tokens.constant and len(values) > 1:
+            self.warn(f'{where} is constant with {len(values)} values; the first used (as Storm)')
+            values = values[:1]
+        if width == 3:
+            return tuple(float(x) for x in values.mean(axis=0))
+        a = float(values.mean())
+        if not 0.0 <= a <= 1.0:
+            self.warn(f'{where} is {a:g}, outside [0, 1]; clamped')
+        return min(max(a, 0.0), 1.0)
 
     def emitting(self, index: int, radiance: tuple, mode: str = 'independent', gains: tuple = (1.0, 1.0)) -> int:
         """Index of the material of a mesh with UsdLux MeshLightAPI whose bound material is `index`,

@@ -2,7 +2,8 @@
 lights a Lambert floor as a RectLight of the same size, placement and radiance does (Lambert's polygon
 formula), by light sampling alone, BSDF sampling alone and MIS; MIS beats BSDF sampling alone when an
 emissive mesh is the only light; every placement of an instanced emissive prototype is a light of its
-own; an emissive ellipsoid and a see-through emissive quad light the floor as closed forms say."""
+own; an emissive ellipsoid and a see-through emissive quad (of one opacity, or of an opacity per corner) light the
+floor as closed forms say."""
 import numpy as np
 import pytest
 
@@ -188,6 +189,23 @@ def test_a_see_through_emissive_quad_lights_the_floor_with_its_opacity_times_its
     ref = opacity * polygon_reference()
     keep = _beside()
     _check_strategies(desc, ref, keep)
+
+
+def test_an_emissive_quad_of_per_corner_opacities_lights_the_floor_as_two_triangles_of_those_opacities():
+    """The see-through quad with its opacity kept per corner instead (a varying displayOpacity that its material
+    reads: `Material.vertex_opacity`, the A of `Mesh.colors`), 0.3 on one triangle and 0.8 on the other: it lights
+    the floor as two triangle lights of those opacities times its emission, by light sampling alone (which weighs
+    each point by its opacity there), BSDF sampling alone and MIS."""
+    veil = D.Material('/veil', model=D.PREVIEW_SURFACE, diffuse=(0.0, 0.0, 0.0), use_specular_workflow=True,
+                      emission=(LR,) * 3, vertex_opacity=True)
+    card = emitter()
+    alpha = np.array([0.3, 0.8])
+    card.colors = np.concatenate([np.ones((2, 3, 3)), np.repeat(alpha[:, None, None], 3, 1)], 2).astype(np.float32)
+    desc = scene([D.Container('/', meshes=[quad(40.0), card])], [FLOOR, veil], [], ortho_down(width=WIDTH),
+                 width=N, height=N)
+    ref = sum(a * ti.pixel_average(lambda x, z, t=tri: 0.5 / np.pi * ti.polygon_irradiance(
+        x, z, [tuple(card.points[i]) for i in t], LR), N, WIDTH, sub=8) for a, tri in zip(alpha, card.triangles))
+    _check_strategies(desc, ref, _beside())
 
 
 def test_a_moving_emissive_quad_lights_the_floor_as_its_shutter_average():

@@ -161,10 +161,13 @@ def test_instances_read_the_primvars_of_their_own_ancestors(name):
     assert left[..., 0].sum() > 3 * left[..., 2].sum() and right[..., 2].sum() > 3 * right[..., 0].sum()
 
 
-def test_a_varying_display_color_read_goes_per_corner_and_another_is_averaged():
+def test_varying_display_color_and_opacity_reads_go_per_corner_and_another_is_averaged():
+    """diffuseColor reading displayColor and opacity reading displayOpacity, both uniform over the mesh: per corner
+    (the RGB and the A of `Mesh.colors`); roughness reading displayOpacity too: its mean, warned."""
     st = Usd.Stage.CreateInMemory()
     mat = _material(st, '/Looks/M', {'diffuseColor': ('UsdPrimvarReader_float3', 'displayColor', None),
-                                     'opacity': ('UsdPrimvarReader_float', 'displayOpacity', None)})
+                                     'opacity': ('UsdPrimvarReader_float', 'displayOpacity', None),
+                                     'roughness': ('UsdPrimvarReader_float', 'displayOpacity', None)})
     mesh = UsdGeom.Mesh.Define(st, '/Q')
     mesh.CreatePointsAttr([(-1, 0, -1), (1, 0, -1), (1, 0, 1), (-1, 0, 1)])
     mesh.CreateFaceVertexCountsAttr([3, 3])
@@ -174,11 +177,13 @@ def test_a_varying_display_color_read_goes_per_corner_and_another_is_averaged():
     UsdShade.MaterialBindingAPI.Apply(mesh.GetPrim()).Bind(mat)
     desc = read_stage(st)
     m = _materials(desc)['/Q']
-    assert m.vertex_colors and m.diffuse == (1.0, 1.0, 1.0) and m.opacity == pytest.approx(0.4)
+    assert m.vertex_colors and m.diffuse == (1.0, 1.0, 1.0)
+    assert m.vertex_opacity and m.opacity == 1.0 and m.roughness == pytest.approx(0.4)
     q = next(g for c in desc.containers for g in c.meshes)
-    assert q.colors is not None and np.allclose(q.colors[0], RED) and np.allclose(q.colors[1], BLUE)
-    assert any(w.startswith('/Q: primvars:displayOpacity varies over it (uniform)') and 'reads its mean' in w
-               for w in desc.warnings)
+    assert q.colors is not None and np.allclose(q.colors[0, :, :3], RED) and np.allclose(q.colors[1, :, :3], BLUE)
+    np.testing.assert_allclose(q.colors[..., 3], [[0.2] * 3, [0.6] * 3], rtol=1e-6)
+    mean = [w for w in desc.warnings if w.startswith('/Q: primvars:displayOpacity varies over it (uniform)')]
+    assert len(mean) == 1 and 'reads its mean' in mean[0], desc.warnings
 
 
 def _two_faces(st, path, mat, name, subsets=None):
