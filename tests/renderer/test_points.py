@@ -280,7 +280,8 @@ def test_an_emissive_cloud_lights_as_its_spheres(case):
 
 def test_the_points_example_scene():
     """scenes/points.usda: the two strings of fairy lights are 27 + 19 lights (a bulb each, of diameter 0.1) beside
-    the DomeLight, the heap of 40 pebbles is placed three times (one prototype), no warning; a small path render
+    the DomeLight, the heap of 40 pebbles is placed three times (one prototype), the 14 bubbles keep a colour and an
+    opacity a point, no warning; a small path render
     of it lit by the bulbs alone is finite and lit."""
     from pathlib import Path
     from rtc.renderer import description as D
@@ -291,7 +292,11 @@ def test_the_points_example_scene():
     assert [l.type for l in desc.lights] == [D.DOME] and not desc.warnings
     clouds = {s.path: s for c in desc.containers for s in c.spheres if s.centers is not None}
     assert {p: len(s.centers) for p, s in clouds.items()} == {
-        '/World/FairyLights/Back': 27, '/World/FairyLights/Front': 19, '/__Prototype_1/Stones': 40}
+        '/World/FairyLights/Back': 27, '/World/FairyLights/Front': 19, '/__Prototype_1/Stones': 40,
+        '/World/Bubbles': 14}
+    bubbles = clouds['/World/Bubbles']                  # (no material: Storm's fallback, see-through bubbles)
+    assert bubbles.colors.shape == (14, 4) and desc.materials[bubbles.material].vertex_opacity
+    assert 0.2 <= bubbles.colors[:, 3].min() and bubbles.colors[:, 3].max() <= 0.6
     stones = [k for k, c in enumerate(desc.containers) if any(s.path.endswith('/Stones') for s in c.spheres)]
     assert len(stones) == 1 and np.count_nonzero(desc.instances.container == stones[0]) == 3
     built = build(desc)
