@@ -19,7 +19,7 @@ from pathlib import Path
 import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
-from benchmarks.ab_render import (ROOT, add_order_option, base_tree, import_copy, load,  # noqa: E402
+from benchmarks.ab_render import (ROOT, add_order_option, base_tree, for_renderer, import_copy, load,  # noqa: E402
                                   report_ratio, run_both_orders)
 
 
@@ -52,7 +52,7 @@ def main(argv=None) -> int:
     for path in a.scenes:
         desc = load(path)
         out = {}
-        with base_mod.Renderer(desc) as rb, new_mod.Renderer(desc) as rn:
+        with base_mod.Renderer(for_renderer(desc, base_mod)) as rb, new_mod.Renderer(desc) as rn:
             rs = {'base': (rb, base_mod), 'new': (rn, new_mod)}
             rs = {n: rs[n] for n in sorted(rs, key=lambda n: n != a.order)}      # its kernels load first
 

@@ -117,6 +117,19 @@ def load(path: str):
     return read_stage(path)
 
 
+def for_renderer(desc, render_module):
+    """`desc` as the renderer of `render_module` reads it: one older than 8-bit textures kept as bytes
+    (`description.BytePixels`) is given the textures' float32 values, which its kernels read as the new ones read
+    the bytes (the same values, bit for bit)."""
+    package = render_module.__name__.rsplit('.', 2)[0]
+    if hasattr(importlib.import_module(package + '.description'), 'BytePixels') or not desc.textures:
+        return desc
+    from dataclasses import replace
+    from rtc.renderer.description import linear_pixels
+    return replace(desc, textures=[replace(t, pixels=linear_pixels(t.pixels), tiles=tuple(
+        None if p is None else linear_pixels(p) for p in t.tiles)) for t in desc.textures])
+
+
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('scenes', nargs='+')
@@ -151,7 +164,7 @@ def main(argv=None) -> int:
         for label, mod in sorted((('base', base), ('new', new)), key=lambda v: v[0] != a.order):
             opts = mod.RenderOptions(width=a.width, height=a.height, spp=a.spp, sampler=a.sampler, filter=a.filter,
                                      seed=a.seed, max_depth=a.max_depth, integrator=a.integrator)
-            r = mod.Renderer(desc)
+            r = mod.Renderer(for_renderer(desc, mod))
             t0 = time.perf_counter()
             r.render(mod.RenderOptions(**{**opts.__dict__, 'spp': 1}))          # kernel load / compile
             versions[label] = (r, opts, time.perf_counter() - t0)

@@ -21,7 +21,7 @@ import numba
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 import bench_render as BR                                          # noqa: E402
-from ab_render import base_tree, import_copy, load                # noqa: E402
+from ab_render import base_tree, for_renderer, import_copy, load  # noqa: E402
 
 from rtc.renderer.host.render import RenderOptions, Renderer      # noqa: E402
 
@@ -48,7 +48,7 @@ def main(argv=None) -> int:
         with Renderer(desc) as new:
             new.render(RenderOptions(**{**o.__dict__, 'spp': 1}))
             rays = {k: rk for k, rk in BR.recorded_rays(new, o, a.spp, 1 << 15).items() if len(rk[0])}
-            old = base.Renderer(desc)
+            old = base.Renderer(for_renderer(desc, base))
             try:
                 old.path_lights()
                 handles = {'base': old.path_scene(), 'new': new.path_scene()}

@@ -201,9 +201,39 @@ class Material:
 
 
 @dataclass
+class BytePixels:
+    """An 8-bit image's pixels as its bytes, (h, w, c) uint8, read through `images.byte_lut`: its first `srgb`
+    channels sRGB-decoded, the others (alpha, or every channel of a raw image) as v / 255.  A quarter of the
+    float32 image's memory, and the same values (`linear`)."""
+    data: np.ndarray
+    srgb: int = 0
+
+    @property
+    def shape(self) -> tuple:
+        return self.data.shape
+
+    def flipped(self) -> 'BytePixels':
+        """The image upside down (rows reversed)."""
+        return BytePixels(np.ascontiguousarray(self.data[::-1]), self.srgb)
+
+    def linear(self) -> np.ndarray:
+        """The float32 linear values the kernels read (what the float32 path decodes, bit for bit)."""
+        from .images import byte_lut
+        lut = byte_lut()
+        c = self.data.shape[2]
+        return np.stack([lut[1 if k < self.srgb else 0][self.data[..., k]] for k in range(c)], -1)
+
+
+def linear_pixels(pixels) -> np.ndarray:
+    """A texture's (or tile's) pixels as float32 linear values, whether stored as floats or as `BytePixels`."""
+    return pixels.linear() if isinstance(pixels, BytePixels) else np.asarray(pixels, np.float32)
+
+
+@dataclass
 class Texture:
     path: str                               # resolved file path
-    pixels: np.ndarray                      # float32 (h, w, c) linear (sRGB decoded where the file is sRGB)
+    pixels: np.ndarray                      # float32 (h, w, c) linear (sRGB decoded where the file is sRGB), or
+                                            # an 8-bit file's `BytePixels`
     wrap_s: str = 'repeat'                  # 'repeat' | 'clamp' | 'mirror' | 'black'
     wrap_t: str = 'repeat'
     scale: tuple = (1.0, 1.0, 1.0, 1.0)

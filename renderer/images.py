@@ -8,6 +8,7 @@ loader always produced).  The compiler decodes the course's cube-map faces with 
 """
 from __future__ import annotations
 
+import functools
 import os
 from typing import Optional
 
@@ -28,10 +29,23 @@ def srgb_decode(encoded: np.ndarray) -> np.ndarray:
     return np.where(v <= 0.04045, v / 12.92, ((np.maximum(v, 0.04045) + 0.055) / 1.055) ** 2.4)
 
 
-def read_pixels(path, max_pixels: Optional[int] = None):
+@functools.lru_cache(maxsize=None)
+def byte_lut() -> np.ndarray:
+    """float32 (2, 256): what an 8-bit image's byte values are read as: row 0 OpenImageIO's conversion to float
+    (`read_pixels`), row 1 that sRGB-decoded (`srgb_decode` in float32): bit for bit the values of the float32
+    image `read_pixels` and `srgb_decode` give, so that textures can keep their bytes (a quarter of the memory)
+    and the kernels look their values up (`kernel/textures._texel`)."""
+    import OpenImageIO as oiio
+    row = np.asarray(oiio.ImageBuf(np.arange(256, dtype=np.uint8).reshape(1, 256, 1)).get_pixels(oiio.FLOAT),
+                     np.float32).reshape(256)
+    return np.ascontiguousarray(np.stack([row, srgb_decode(row)]), np.float32)
+
+
+def read_pixels(path, max_pixels: Optional[int] = None, keep_bytes: bool = False):
     """(float32 pixels (h, w, channels) as stored, the file's OpenImageIO ImageSpec).  Raises OSError
     with OpenImageIO's reason; `max_pixels` refuses a larger image from its header, before
-    allocating (a corrupt header can claim 10^10 pixels)."""
+    allocating (a corrupt header can claim 10^10 pixels).  `keep_bytes`: an image stored in 8 bits comes back
+    as its uint8 values (`byte_lut` reads them)."""
     import OpenImageIO as oiio
     path = os.fspath(path)
     inp = oiio.ImageInput.open(path)
@@ -41,9 +55,11 @@ def read_pixels(path, max_pixels: Optional[int] = None):
         spec = inp.spec()
         if max_pixels is not None and spec.width * spec.height * spec.depth > max_pixels:
             raise OSError(f'{spec.width} x {spec.height} pixels is more than the limit of {max_pixels}')
-        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.FLOAT)
+        as_bytes = keep_bytes and spec.format == oiio.UINT8
+        pixels = inp.read_image(0, 0, 0, spec.nchannels, oiio.UINT8 if as_bytes else oiio.FLOAT)
         if pixels is None:
             raise OSError(inp.geterror() or 'no pixel data')
     finally:
         inp.close()
-    return np.asarray(pixels, np.float32).reshape(spec.height, spec.width, spec.nchannels), spec
+    return np.asarray(pixels, np.uint8 if as_bytes else np.float32).reshape(spec.height, spec.width,
+                                                                            spec.nchannels), spec

@@ -21,6 +21,7 @@ import numpy as np
 
 from .. import description as D
 from .embree import CurveGeometry, Device, InstanceGroup
+from ..images import byte_lut
 from ..kernel.trace import MASK_SURFACES
 from ..kernel.tables import LIGHT_F, MATERIAL_F, MATERIAL_I, TEXTURE_F, TEXTURE_I, VC_COLOR, VC_OPACITY, WRAP
 from .features import see_through
@@ -32,7 +33,7 @@ SceneData = namedtuple('SceneData', [
     'pr_gp_start', 'pr_geom_off', 'pr_geom_gp',
     'in_proto', 'in_xf', 'in_matset', 'matset', 'grp_base',
     'mat_i', 'mat_f',
-    'tex_i', 'tex_f', 'tex_data',
+    'tex_i', 'tex_f', 'tex_data', 'tex_bytes', 'tex_lut',
     'li_type', 'li_f', 'li_tex', 'li_ies',
     'background', 'offset_scale', 'see_through',
 ])
@@ -179,8 +180,10 @@ _IDENTITY = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
 
 def _texture_tables(textures: list[D.Texture]):
-    """(tex_i, tex_f, tex_data) of the textures, in their order; each UDIM texture's entries (the one read outside
-    its tiles, then its tiles, a missing one a texel 0: clamped, its scale and bias, no transform) after them all."""
+    """(tex_i, tex_f, tex_data, tex_bytes) of the textures, in their order; each UDIM texture's entries (the one read
+    outside its tiles, then its tiles, a missing one a texel 0: clamped, its scale and bias, no transform) after them
+    all.  A float image's values go to tex_data, an 8-bit one's bytes to tex_bytes (TI_BYTES: its sRGB-decoded
+    channels, -1 for floats; `kernel/textures._texel` looks them up in `images.byte_lut`), from TI_OFFSET."""
     rows = [(t.pixels, t.wrap_s, t.wrap_t, t.scale, t.bias, t.transform) for t in textures]
     udim = [-1] * len(textures)
     for k, t in enumerate(textures):
@@ -190,21 +193,24 @@ def _texture_tables(textures: list[D.Texture]):
                      for px in (None,) + tuple(t.tiles)]
     tex_i = np.zeros((max(len(rows), 1), TEXTURE_I.width), np.int64)
     tex_i[:, TEXTURE_I.offset['UDIM']] = -1
+    tex_i[:, TEXTURE_I.offset['BYTES']] = -1
     tex_f = np.zeros((max(len(rows), 1), TEXTURE_F.width), np.float32)
-    chunks, off = [], 0
+    chunks, off = {np.float32: [], np.uint8: []}, {np.float32: 0, np.uint8: 0}
     for k, (pixels, wrap_s, wrap_t, scale, bias, transform) in enumerate(rows):
-        px = np.ascontiguousarray(pixels, np.float32)
+        kind = np.uint8 if isinstance(pixels, D.BytePixels) else np.float32
+        px = np.ascontiguousarray(pixels.data if kind is np.uint8 else pixels, kind)
         if px.ndim == 2:
             px = px[:, :, None]
         h, w, c = px.shape
-        TEXTURE_I.write(tex_i[k], OFFSET=off, WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(wrap_s, 0),
-                        WRAP_T=WRAP.get(wrap_t, 0))
+        TEXTURE_I.write(tex_i[k], OFFSET=off[kind], WIDTH=w, HEIGHT=h, CHANNELS=c, WRAP_S=WRAP.get(wrap_s, 0),
+                        WRAP_T=WRAP.get(wrap_t, 0), BYTES=pixels.srgb if kind is np.uint8 else -1)
         if k < len(udim) and udim[k] >= 0:
             TEXTURE_I.write(tex_i[k], UDIM=udim[k], UDIM_ROWS=len(textures[k].tiles) // 10)
         TEXTURE_F.write(tex_f[k], SCALE=scale, BIAS=bias, XF=transform)
-        chunks.append(px.ravel())
-        off += px.size
-    return tex_i, tex_f, (np.concatenate(chunks) if chunks else np.zeros(1, np.float32))
+        chunks[kind].append(px.ravel())
+        off[kind] += px.size
+    return (tex_i, tex_f, *(np.concatenate(chunks[kind]) if chunks[kind] else np.zeros(1, kind)
+                            for kind in (np.float32, np.uint8)))
 
 
 def _light_tables(lights: list[D.Light], origin: np.ndarray):
@@ -554,7 +560,7 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         reuse.prototypes, reuse.device, reuse.path_prototypes = [], None, None
 
     mat_i, mat_f = _material_tables(desc.materials)
-    tex_i, tex_f, tex_data = _texture_tables(desc.textures)
+    tex_i, tex_f, tex_data, tex_bytes = _texture_tables(desc.textures)
     li_type, li_f, li_tex, li_ies = _light_tables(desc.lights, origin)
     geom_off = np.cumsum([0] + [len(g) for g in pr_geom]).astype(np.int64)
     gp_material = np.array(tables.material, np.int32)
@@ -575,7 +581,8 @@ def build(desc: D.SceneDescription, threads: int | None = None, reuse: BuiltScen
         in_xf=np.ascontiguousarray(xf[perm]) if len(perm) else np.zeros((1, K, 3, 4)),
         in_matset=np.ascontiguousarray(in_matset[perm], np.int64) if len(perm) else np.zeros(1, np.int64),
         matset=np.array(flat or [-1], np.int32), grp_base=grp_base,
-        mat_i=mat_i, mat_f=mat_f, tex_i=tex_i, tex_f=tex_f, tex_data=tex_data,
+        mat_i=mat_i, mat_f=mat_f, tex_i=tex_i, tex_f=tex_f, tex_data=tex_data, tex_bytes=tex_bytes,
+        tex_lut=byte_lut() if desc.textures else np.zeros((2, 256), np.float32),
         li_type=li_type, li_f=li_f, li_tex=li_tex, li_ies=li_ies,
         background=np.array(desc.background, np.float64),
         offset_scale=np.array([offset_scale(xf, in_proto, np.array(radii, np.float64))], np.float64),

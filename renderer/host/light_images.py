@@ -24,7 +24,7 @@ FLOOR = 1e-3
 
 
 def _luminance(t: D.Texture) -> np.ndarray:
-    px = np.asarray(t.pixels, np.float64)
+    px = np.asarray(D.linear_pixels(t.pixels), np.float64)
     if px.ndim == 2:
         px = px[:, :, None]
     scale = np.asarray(t.scale, np.float64)

@@ -73,8 +73,8 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import (CURVE_CAP, CURVE_CUBIC, CURVE_LINEAR, GP_CURVES, GP_LINEAR, GP_MESH, GP_RIBBON,
                              GP_SPHERE, MF_EMIT, MI_EMISSION_TEX, MI_MODEL, MI_SCALAR_TEX, MI_VERTEX_COLOR, S_OPACITY,
-                             SLI_GPRIM, SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_CHANNELS, TI_HEIGHT,
-                             TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH, VC_OPACITY)
+                             SLI_GPRIM, SURFACE_LIGHT_F, SURFACE_LIGHT_I, TF_BIAS, TF_SCALE, TI_BYTES, TI_CHANNELS,
+                             TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH, VC_OPACITY)
 from . import curve_caps
 from .features import constant_opacity
 from .light_tree import ENTIRE
@@ -122,8 +122,9 @@ def texture_mean(data, k: int) -> np.ndarray:
     if first >= 0:
         tiles = range(first + 1, first + 1 + 10 * int(data.tex_i[k, TI_UDIM_ROWS]))
         return np.mean([texture_mean(data, j) for j in tiles], axis=0)
-    off, w, h, ch = (int(data.tex_i[k, c]) for c in (TI_OFFSET, TI_WIDTH, TI_HEIGHT, TI_CHANNELS))
-    px = data.tex_data[off:off + w * h * ch].reshape(-1, ch).astype(np.float64)
+    off, w, h, ch, srgb = (int(data.tex_i[k, c]) for c in (TI_OFFSET, TI_WIDTH, TI_HEIGHT, TI_CHANNELS, TI_BYTES))
+    raw = (data.tex_data if srgb < 0 else data.tex_bytes)[off:off + w * h * ch].reshape(-1, ch)
+    px = (raw if srgb < 0 else np.stack([data.tex_lut[int(c < srgb), raw[:, c]] for c in range(ch)], 1)).astype(float)
     rgb = px[:, [c if ch >= 3 else 0 for c in range(3)]]
     return np.abs(rgb * data.tex_f[k, TF_SCALE:TF_SCALE + 3] + data.tex_f[k, TF_BIAS:TF_BIAS + 3]).mean(0)
 

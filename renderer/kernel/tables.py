@@ -15,8 +15,10 @@ Tables (arrays of `SceneData`, and the camera table):
   S_METAL, S_OPACITY, S_CLEARCOAT, S_CC_ROUGH), and the texture of its tangent-space normal (NORMAL_TEX).
 * `LIGHT_F` (LF_*, `li_f` float64): light-to-world 3x4 (camera-relative), radiance, sizes, cone, area.
 * `TEXTURE_I` (TI_*, `tex_i` int64) and `TEXTURE_F` (TF_*, `tex_f` float32): where a texture's texels
-  are in `tex_data`, its size, channels and wrap modes; its scale and bias (rgba) and the affine map of its
-  texture coordinates (XF: a UsdTransform2d's; the identity without one).  A UDIM texture's UDIM: the entry read
+  are in `tex_data` (float32), or in `tex_bytes` for an 8-bit image (BYTES: how many of its channels are read as
+  sRGB, through row 1 of `tex_lut`, the others through row 0; -1: floats), its size, channels and wrap modes; its
+  scale and bias (rgba) and the affine map of its texture coordinates (XF: a UsdTransform2d's; the identity without
+  one).  A UDIM texture's UDIM: the entry read
   outside its tiles (a texel 0), followed by its 10 x UDIM_ROWS tiles (`textures.udim_tile`); -1 for any other.
 * `CAMERA` (C_*, float64 vector): see `cameras.camera_table`.
 
@@ -81,7 +83,7 @@ LIGHT_F = Table('LF', [('M', 12), ('RAD', 3), ('RADIUS', 1), ('W', 1), ('H', 1),
                        ('COURSE', 1), ('COURSE_I', 3), ('LENGTH', 1), ('SHAPED', 1), ('CONE', 2), ('FOCUS', 1),
                        ('TINT', 3), ('IES', 3), ('GAIN', 2)])
 TEXTURE_I = Table('TI', [('OFFSET', 1), ('WIDTH', 1), ('HEIGHT', 1), ('CHANNELS', 1), ('WRAP_S', 1),
-                         ('WRAP_T', 1), ('UDIM', 1), ('UDIM_ROWS', 1)])
+                         ('WRAP_T', 1), ('UDIM', 1), ('UDIM_ROWS', 1), ('BYTES', 1)])
 TEXTURE_F = Table('TF', [('SCALE', 4), ('BIAS', 4), ('XF', 6)])
 # camera: camera-to-world 3x4 at shutter open and close (camera-relative world: translation 0 at open;
 # M1 == M when the camera does not move), orthographic flag, half film width / height (over the focal

@@ -1,8 +1,10 @@
 """Image texture lookups for the kernels.
 
 Images are decoded once by the stage reader (OpenImageIO) into linear float32 and packed into one
-flat array (`SceneData.tex_data`, offsets in `tex_i`).  Lookups are bilinear with the UsdUVTexture
-wrap modes; `st` follows USD: s to the right, t **up** (row 0 of the file is the top, t = 1).
+flat array (`SceneData.tex_data`, offsets in `tex_i`); an 8-bit image keeps its bytes (`tex_bytes`), read through
+the table of what each byte decodes to (`tex_lut`, `images.byte_lut`): the same values in a quarter of the memory.
+Lookups are bilinear with the UsdUVTexture wrap modes; `st` follows USD: s to the right, t **up** (row 0 of the
+file is the top, t = 1).
 Lat-long maps follow the OpenEXR / UsdLux DomeLight convention: +Y is the top row, longitude 0 is +Z,
 longitude +pi/2 is +X, and longitude decreases to the right.
 """
@@ -12,8 +14,9 @@ import numba as nb
 
 from .features import F_UDIM
 from .jit import INLINE_JIT, SHADING_JIT
-from .tables import (TF_BIAS, TF_SCALE, TF_XF, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS, TI_WIDTH,
-                     TI_WRAP_S, TI_WRAP_T, WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR, WRAP_REPEAT as REPEAT)
+from .tables import (TF_BIAS, TF_SCALE, TF_XF, TI_BYTES, TI_CHANNELS, TI_HEIGHT, TI_OFFSET, TI_UDIM, TI_UDIM_ROWS,
+                     TI_WIDTH, TI_WRAP_S, TI_WRAP_T, WRAP_CLAMP as CLAMP, WRAP_MIRROR as MIRROR,
+                     WRAP_REPEAT as REPEAT)
 
 
 @nb.njit(**INLINE_JIT)
@@ -41,6 +44,9 @@ def _texel(S, tid, x, y, c):
     yi, oky = _wrap(y, h, S.tex_i[tid, TI_WRAP_T])
     if not (okx and oky):
         return 0.0
+    srgb = S.tex_i[tid, TI_BYTES]
+    if srgb >= 0:                                    # an 8-bit image: its byte's value (`images.byte_lut`)
+        return S.tex_lut[1 if c < srgb else 0, S.tex_bytes[off + (yi * w + xi) * ch + c]]
     return S.tex_data[off + (yi * w + xi) * ch + c]
 
 

@@ -34,7 +34,7 @@ import numpy as np
 from pxr import Ar, Sdf, Usd, UsdGeom, UsdShade
 
 from ..images import read_pixels, srgb_decode
-from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, Material, Texture
+from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, BytePixels, Material, Texture
 from .corner_primvars import DISPLAY_OPACITY, corner_colour_name, corner_opacity_name
 from .geometry import varying_display_color, varying_display_opacity
 from .primvar_values import flattened
@@ -509,7 +509,8 @@ class MaterialTable:
         if key not in self._texture_index:
             pixels = self._load(resolved, colour_space, owner)
             self._texture_index[key] = -1
-            negative = 0 if pixels is None or not light else int(np.count_nonzero((pixels[..., :3] < 0.0).any(-1)))
+            negative = 0 if pixels is None or not light or isinstance(pixels, BytePixels) else \
+                int(np.count_nonzero((pixels[..., :3] < 0.0).any(-1)))
             if negative:
                 self.warn(f'{owner}: texture {resolved} has {negative} texels with negative values; the light '
                           f'reads them as 0')
@@ -547,7 +548,7 @@ class MaterialTable:
                 self._texture_index[key] = len(self.textures) - 1
         return self._texture_index[key]
 
-    def _load(self, resolved: str, colour_space: str, owner: str) -> np.ndarray | None:
+    def _load(self, resolved: str, colour_space: str, owner: str):
         key = (resolved, colour_space)
         if key not in self._pixels:
             try:
@@ -555,7 +556,7 @@ class MaterialTable:
             except OSError as exc:
                 self.warn(f'{owner}: cannot read texture {resolved}: {exc}')
                 pixels = None
-            if pixels is not None:
+            if pixels is not None and not isinstance(pixels, BytePixels):      # (bytes are finite)
                 bad = ~np.isfinite(pixels)
                 if bad.any():       # one NaN texel of a dome made every light sample NaN: the dome went dark
                     self.warn(f'{owner}: texture {resolved} has {int(bad.sum())} NaN or infinite values; '
@@ -568,8 +569,9 @@ class MaterialTable:
 MAX_TEXTURE_PIXELS = 1 << 28      # 16k x 16k; decoded as float32 (a corrupt header can claim 10^10)
 
 
-def read_texture(resolved: str, colour_space: str = 'auto') -> np.ndarray:
-    """Decode an image to float32 (h, w, c) linear values.
+def read_texture(resolved: str, colour_space: str = 'auto'):
+    """Decode an image to float32 (h, w, c) linear values, or an 8-bit one to its bytes (`BytePixels`, which the
+    kernels read as those values).
 
     `colour_space` follows UsdUVTexture.sourceColorSpace: 'sRGB' decodes the colour channels,
     'raw' does not, 'auto' decodes when the file says it is sRGB or, lacking metadata, when it
@@ -584,10 +586,13 @@ def read_texture(resolved: str, colour_space: str = 'auto') -> np.ndarray:
             tmp.write(bytes(data.GetBuffer()))
             tmp.flush()
             return read_texture(tmp.name, colour_space)
-    pixels, spec = read_pixels(resolved, MAX_TEXTURE_PIXELS)
+    pixels, spec = read_pixels(resolved, MAX_TEXTURE_PIXELS, keep_bytes=True)
     tagged = str(spec.getattribute('oiio:ColorSpace') or '').lower()
+    colour = 0
     if colour_space == 'sRGB' or (colour_space == 'auto' and (
             tagged.startswith('srgb') or (not tagged and spec.format == oiio.UINT8))):
         colour = min(3, spec.nchannels if spec.nchannels != 2 else 1)
-        pixels[..., :colour] = srgb_decode(pixels[..., :colour])
+    if pixels.dtype == np.uint8:
+        return BytePixels(np.ascontiguousarray(pixels), colour)
+    pixels[..., :colour] = srgb_decode(pixels[..., :colour])
     return np.ascontiguousarray(pixels)

@@ -26,7 +26,8 @@ from typing import Optional, Union
 import numpy as np
 from pxr import Sdf, Tf, Usd, UsdGeom, UsdShade, UsdUtils
 
-from ..description import (FLOAT32_MAX, Container, Curves, Instances, Light, Mesh, SceneDescription, Sphere)
+from ..description import (FLOAT32_MAX, BytePixels, Container, Curves, Instances, Light, Mesh, SceneDescription,
+                           Sphere)
 from ..errors import SceneError
 from ..options import RenderOptions, resolve
 from .camera import (default_camera, read_camera, read_render_settings, render_settings_prim,
@@ -383,7 +384,8 @@ class _Reader:
         index = self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True)
         if upside_down and index >= 0:                # (a copy whose rows are reversed: a mirrored light's)
             t = self.materials.textures[index]
-            self.materials.textures.append(replace(t, pixels=np.ascontiguousarray(t.pixels[::-1])))
+            flipped = t.pixels.flipped() if isinstance(t.pixels, BytePixels) else np.ascontiguousarray(t.pixels[::-1])
+            self.materials.textures.append(replace(t, pixels=flipped))
             index = len(self.materials.textures) - 1
         return index
 

@@ -24,7 +24,7 @@ def test_offsets_are_the_packed_declaration():
     assert [T.C_M, T.C_M1, T.C_ORTHO, T.C_HALF_W, T.C_HALF_H, T.C_OFF_X, T.C_OFF_Y, T.C_LENS, T.C_FOCUS, T.C_NEAR,
             T.C_FAR, T.C_MOVING] == [0, 12, *range(24, 34)]
     assert T.CAM_COLS == 34
-    assert (T.TI_OFFSET, T.TI_WRAP_T, T.TI_UDIM, T.TI_UDIM_ROWS, T.TEX_I_COLS) == (0, 5, 6, 7, 8)
+    assert (T.TI_OFFSET, T.TI_WRAP_T, T.TI_UDIM, T.TI_UDIM_ROWS, T.TI_BYTES, T.TEX_I_COLS) == (0, 5, 6, 7, 8, 9)
     assert (T.TF_SCALE, T.TF_BIAS, T.TF_XF, T.TEX_F_COLS) == (0, 4, 8, 14)
     for t in T.TABLES:
         ends = [t.offset[name] + w for name, w in t.fields]
