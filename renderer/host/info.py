@@ -10,7 +10,7 @@ from collections import Counter
 
 import numpy as np
 
-from ..description import MODEL_NAMES, SceneDescription
+from ..description import MODEL_NAMES, BytePixels, SceneDescription
 from ..options import resolve
 
 LIGHT_NAMES = ('point', 'sphere', 'rect', 'disk', 'distant', 'dome', 'cylinder')
@@ -70,8 +70,9 @@ def describe(desc: SceneDescription) -> str:
     for t in desc.textures[:MAX_LISTED]:
         h, w = t.pixels.shape[:2]
         found = sum(p is not None for p in t.tiles)
+        bits = ', 8-bit, kept as bytes' if isinstance(t.pixels, BytePixels) else ''
         lines.append(f'    {t.path} ({found} UDIM tiles of {len(t.tiles)})' if t.tiles else
-                     f'    {t.path} ({w} x {h}, {t.pixels.shape[2]} channels)')
+                     f'    {t.path} ({w} x {h}, {t.pixels.shape[2]} channels{bits})')
     for title, items in (('warnings', desc.warnings), ('skipped', desc.skipped)):
         lines.append(f'  {title}: {len(items)}')
         lines += [f'    {x}' for x in items[:MAX_LISTED]]

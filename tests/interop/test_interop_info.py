@@ -108,7 +108,8 @@ def test_info_on_a_compiled_scene(tmp_path):
 
 def test_info_counts_the_shaped_lights():
     """scenes/lights.usda: its spotlight and its sconce are shaped (ShapingAPI), the sconce by an IES profile; its
-    sign has an image; its bar has inputs:specular 0."""
-    assert_lines(info(REPO / 'scenes' / 'lights.usda'),
-                 'lights: 5 (cylinder 1, rect 2, sphere 2); shaped 2 (1 by an IES profile); 1 with an image; '
+    sign has an image (an 8-bit PNG, kept as its bytes); its bar has inputs:specular 0."""
+    lines = info(REPO / 'scenes' / 'lights.usda')
+    assert_lines(lines, 'lights: 5 (cylinder 1, rect 2, sphere 2); shaped 2 (1 by an IES profile); 1 with an image; '
                  '1 with diffuse / specular gains', 'warnings: 0')
+    assert any(line.endswith('sign.png (126 x 66, 3 channels, 8-bit, kept as bytes)') for line in lines), lines
