@@ -13,7 +13,8 @@ width, as ray tracers draw curves (Embree's round curves, as Cycles' hair; their
   its mean scale, |det|^(1/3).
 * ``primvars:displayColor`` that varies over the curves (uniform, varying, vertex) is kept at each segment's
   two ends (`Curves.colors`) and interpolated along it by the kernel (`shapes.corner_color`), as the mesh's
-  colours are; constant: the material fallback's colour.
+  colours are; constant: the material fallback's colour.  ``primvars:displayOpacity`` likewise (the fourth
+  channel of `Curves.colors`, `shapes.corner_opacity`), clamped to [0, 1]: strands that fade towards their tips.
 * Authored ``normals`` (ribbons facing them, in Storm) are warned about: the curves are drawn round.
 * UsdGeom.NurbsCurves: their control cage, linear curves through their control points, as usdImaging draws them
   (its NurbsCurves adapter gives Storm a linear BasisCurves topology of the same points), warned.
@@ -82,6 +83,9 @@ def _control_index(counts: np.ndarray, nseg: np.ndarray, step: int, width: int, 
     return off[curve][:, None] + local
 
 
+WIDTHS = {'colour': 3, 'opacity': 1, 'normal': 3}      # the columns of each value kept along the curves
+
+
 def _per_vertex(values, interpolation: str, counts: np.ndarray, ends: int, what: str, warn: Warn):
     """A primvar (widths: (n,), colours: (n, 3)) per vertex -> (values per vertex, or None; values per segment
     end (varying), or None).  None, None: unusable (warned)."""
@@ -102,10 +106,12 @@ def _per_vertex(values, interpolation: str, counts: np.ndarray, ends: int, what:
     return None, None
 
 
-def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
+def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None,
+                 display_opacity=None) -> list[Curves]:
     """The `Curves` record of one BasisCurves prim (gprim-to-container matrix m).  `error`: the exception
     class to raise where the gprim cannot be used; `display_color(prim, time)`: (values, interpolation) of a
-    displayColor that varies over it, or None (`geometry.varying_display_color`)."""
+    displayColor that varies over it, or None (`geometry.varying_display_color`); `display_opacity`: the same of
+    its displayOpacity (`geometry.varying_display_opacity`)."""
     curves = UsdGeom.BasisCurves(prim)
     kind = curves.GetTypeAttr().Get(time) or 'cubic'
     basis = curves.GetBasisAttr().Get(time) or 'bezier'
@@ -113,22 +119,24 @@ def basis_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, po
     if kind not in ('linear', 'cubic') or wrap not in ('nonperiodic', 'periodic', 'pinned') or \
             (kind == 'cubic' and basis not in TO_BEZIER):
         raise error(f'{prim.GetPath()}: curves of type {kind!r}, basis {basis!r}, wrap {wrap!r} are not drawn')
-    return _curves(curves, (kind, basis, wrap), m, time, warn, error, display_color, posed)
+    return _curves(curves, (kind, basis, wrap), m, time, warn, error, (display_color, display_opacity), posed)
 
 
-def nurbs_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
+def nurbs_curves(prim, m: np.ndarray, time, warn: Warn, error, display_color, posed=None,
+                 display_opacity=None) -> list[Curves]:
     """The `Curves` record of one NurbsCurves prim: its control cage, linear segments through its control points,
     with its widths and colours, as usdImaging draws NurbsCurves (`UsdImagingNurbsCurvesAdapter`: a linear,
     nonperiodic BasisCurves topology of the same points; knots, order, weights and ranges unused), warned."""
     warn(f'{prim.GetPath()}: NurbsCurves drawn as their control cage (linear segments through the control points), '
          'as usdImaging draws them')
     cage = ('linear', 'bezier', 'nonperiodic')
-    return _curves(UsdGeom.NurbsCurves(prim), cage, m, time, warn, error, display_color, posed)
+    return _curves(UsdGeom.NurbsCurves(prim), cage, m, time, warn, error, (display_color, display_opacity), posed)
 
 
-def _curves(curves, shape, m, time, warn: Warn, error, display_color, posed=None) -> list[Curves]:
-    """The record of a UsdGeom.Curves prim read as curves of `shape` = (type, basis, wrap); `posed`: its points
-    posed by a skeleton (`skinning.py`) in place of its own."""
+def _curves(curves, shape, m, time, warn: Warn, error, display, posed=None) -> list[Curves]:
+    """The record of a UsdGeom.Curves prim read as curves of `shape` = (type, basis, wrap); `display`: the
+    callbacks giving its displayColor and its displayOpacity where they vary over it (`basis_curves`); `posed`: its
+    points posed by a skeleton (`skinning.py`) in place of its own."""
     kind, basis, wrap = shape
     path = str(curves.GetPath())
     linear = kind == 'linear'
@@ -151,12 +159,14 @@ def _curves(curves, shape, m, time, warn: Warn, error, display_color, posed=None
     w_vertex, w_ends = _per_vertex(w, curves.GetWidthsInterpolation(), counts, ends, f'{path}: widths', warn)
     if w_vertex is None and w_ends is None:
         w_vertex = np.full(len(p), w[0])
-    colour = display_color(curves.GetPrim(), time)
-    c_vertex = c_ends = None
-    if colour is not None:
-        c_vertex, c_ends = _per_vertex(colour[0], colour[1], counts, ends, f'{path}: primvars:displayColor', warn)
-        if c_vertex is None and c_ends is None:
-            c_vertex = np.repeat(colour[0].mean(0)[None], len(p), axis=0)
+    kept = {}
+    for name, primvar, read in (('colour', 'displayColor', display[0]), ('opacity', 'displayOpacity', display[1])):
+        found = read(curves.GetPrim(), time) if read is not None else None
+        if found is not None:
+            v_vertex, v_ends = _per_vertex(found[0], found[1], counts, ends, f'{path}: primvars:{primvar}', warn)
+            if v_vertex is None and v_ends is None:
+                v_vertex = np.repeat(np.asarray(found[0].mean(0)).reshape(1, -1), len(p), axis=0)
+            kept[name] = (v_vertex, v_ends)
     scale = float(abs(np.linalg.det(m[:3, :3])) ** (1.0 / 3.0))
     g = m[:3, :3].T @ m[:3, :3]
     if not np.allclose(g, np.trace(g) / 3.0 * np.eye(3), rtol=1e-6, atol=1e-12 * abs(np.trace(g))):
@@ -164,9 +174,9 @@ def _curves(curves, shape, m, time, warn: Warn, error, display_color, posed=None
     columns = [p @ m[:3, :3].T + m[:3, 3]]
     columns += [0.5 * scale * (w_vertex if w_vertex is not None else np.zeros(len(p)))[:, None]]
     varying = {3: 0.5 * scale * w_ends if w_ends is not None else None}
-    if c_vertex is not None or c_ends is not None:
-        columns.append(c_vertex if c_vertex is not None else np.zeros((len(p), 3)))
-        varying['colour'] = c_ends
+    for name, (v_vertex, v_ends) in kept.items():             # colours, opacities: kept at segment ends
+        columns.append(v_vertex.reshape(len(p), -1) if v_vertex is not None else np.zeros((len(p), WIDTHS[name])))
+        varying[name] = v_ends
     n_vertex, n_ends = _normals(curves, counts, ends, time, warn)
     if n_vertex is not None or n_ends is not None:           # ribbons: normals as normals go, by m's cofactors
         cof = np.linalg.inv(m[:3, :3]).T
@@ -230,7 +240,7 @@ def _segments(path, values, counts, nseg, shape, varying: dict, warn, error) -> 
     cols, nxt = {3: [3]}, 4
     for name in varying:
         if name != 3:
-            cols[name], nxt = [nxt, nxt + 1, nxt + 2], nxt + 3
+            cols[name], nxt = list(range(nxt, nxt + WIDTHS[name])), nxt + WIDTHS[name]
     for name, ends in varying.items():
         if ends is not None:                            # values at segment ends: along the segment, linearly
             a, b = ends[seg_end], ends[after]
@@ -246,10 +256,13 @@ def _record(path, vertices, starts, flags, cols, kind, warn, error) -> Curves:
     linear, ribbons = kind
     last = starts + (1 if linear else 3)
     colors = None
-    if 'colour' in cols:
-        c = cols['colour']
-        colors = np.ascontiguousarray(np.maximum(np.stack([vertices[starts][:, c], vertices[last][:, c]], axis=1),
-                                                 0.0), np.float32)
+    if 'colour' in cols or 'opacity' in cols:            # (k, 2, 3), or (k, 2, 4) with an opacity
+        at_ends = {name: np.stack([vertices[starts][:, c], vertices[last][:, c]], axis=1)
+                   for name, c in cols.items() if name in ('colour', 'opacity')}
+        colors = np.maximum(at_ends['colour'], 0.0) if 'colour' in at_ends else np.ones((len(starts), 2, 3))
+        if 'opacity' in at_ends:
+            colors = np.concatenate([colors, np.clip(at_ends['opacity'], 0.0, 1.0)], axis=2)
+        colors = np.ascontiguousarray(colors, np.float32)
     normals = None
     if ribbons:
         normals = vertices[:, cols['normal']]

@@ -126,9 +126,9 @@ def varying_display_color(prim: Usd.Prim, time, name: str = DISPLAY_COLOR):
 def varying_display_opacity(prim: Usd.Prim, time, name: str = DISPLAY_OPACITY):
     """(values (k,) clamped to [0, 1], interpolation) of a Mesh's or Points' own primvars:displayOpacity (or the
     scalar primvar `name`: `corner_primvars`) where it varies over it, else None.  Such a mesh keeps it per triangle
-    corner, a cloud a value a point (the fourth channel of `Mesh.colors` / `Sphere.colors`), which the fallback
-    material or a material that reads it for its opacity multiplies its opacity by.  Curves keep none (a reader of
-    one reads its mean, warned)."""
+    corner, a cloud a value a point, curves one at each segment end (the fourth channel of `Mesh.colors`,
+    `Sphere.colors`, `Curves.colors`), which the fallback material or a material that reads it for its opacity
+    multiplies its opacity by."""
     v = _varying(prim, time, name, 1, VARYING_OPACITY_TYPES)
     return None if v is None else (np.clip(v[0][:, 0], 0.0, 1.0), v[1])
 
@@ -549,12 +549,12 @@ def _nurbs_patch(prim, m, time, warn, posed=None):
 
 def _basis_curves(prim, m, time, warn, posed=None):
     from .curves import basis_curves                 # (curves.py is the BasisCurves reader; it reads no module here)
-    return basis_curves(prim, m, time, warn, GeometryError, varying_display_color, posed)
+    return basis_curves(prim, m, time, warn, GeometryError, varying_display_color, posed, varying_display_opacity)
 
 
 def _nurbs_curves(prim, m, time, warn, posed=None):
     from .curves import nurbs_curves
-    return nurbs_curves(prim, m, time, warn, GeometryError, varying_display_color, posed)
+    return nurbs_curves(prim, m, time, warn, GeometryError, varying_display_color, posed, varying_display_opacity)
 
 
 IMPLICIT_TYPES = ('Sphere', 'Cube', 'Cylinder')
@@ -568,4 +568,4 @@ _CONVERTERS = {
 _POSABLE = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch')
 # gprims whose records keep a displayColor that varies over them (a course sphere written as a Mesh: a Sphere)
 VARYING_COLOUR_TYPES = ('Mesh', 'Points', 'BasisCurves', 'NurbsCurves', 'TetMesh', 'NurbsPatch', 'Cube')
-VARYING_OPACITY_TYPES = ('Mesh', 'Points', 'TetMesh', 'NurbsPatch', 'Cube')
+VARYING_OPACITY_TYPES = VARYING_COLOUR_TYPES

@@ -169,9 +169,9 @@ class MaterialTable:
         (found with inheritance) where it is constant over the gprim; 'per corner' for a mesh's, a cloud's or
         curves' displayColor that varies over them read for the diffuse colour (their per-corner colours,
         `geometry.varying_display_color`; a mesh's: the colour primvar it keeps per corner, `corner_primvars`), and
-        for a mesh's or a cloud's displayOpacity read for the opacity (`geometry.varying_display_opacity`; not a
-        cloud's whose material `glows`: its balls are lights of one emission each); the mean, warned, for another
-        that varies; the reader's fallback where the gprim has none (as Storm)."""
+        for a mesh's, a cloud's or curves' displayOpacity read for the opacity (`geometry.varying_display_opacity`;
+        not a cloud's or curves' whose material `glows`: their lights emit the material's emission); the mean,
+        warned, for another that varies; the reader's fallback where the gprim has none (as Storm)."""
         if gprim is None or not r.varname:
             return r.fallback
         prim = gprim.GetParent() if gprim.IsA(UsdGeom.Subset) else gprim
@@ -195,7 +195,7 @@ class MaterialTable:
                 return 'per corner'
             if r.field == 'opacity' and r.varname == corner_opacity_name(prim) and \
                     varying_display_opacity(prim, self.time, r.varname) is not None and \
-                    not (glows and prim.IsA(UsdGeom.Points)):
+                    not (glows and (prim.IsA(UsdGeom.Points) or prim.IsA(UsdGeom.Curves))):
                 return 'per corner'
             self.warn(f'{prim.GetPath()}: {name} varies over it ({pv.GetInterpolation()}); {r.reader} reads its '
                       'mean')

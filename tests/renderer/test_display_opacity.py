@@ -284,3 +284,64 @@ def test_a_ramp_of_opacities_over_an_emissive_card_is_seen_as_its_closed_form():
                                      seed=1)).image.astype(np.float64)[..., 0]
     a = (np.arange(width) + 0.5) / width
     np.testing.assert_allclose(img.mean(axis=0), a + (1.0 - a) * 0.25, atol=0.01)
+
+
+def _strand(st, opacities, path='/Strand', basis=None, xs=(-1.5, -0.5, 0.5, 1.5)):
+    curves = UsdGeom.BasisCurves.Define(st, path)
+    curves.CreateTypeAttr('cubic' if basis else 'linear')
+    if basis:
+        curves.CreateBasisAttr(basis)
+    curves.CreatePointsAttr([(x, 0.0, 0.0) for x in xs])
+    curves.CreateCurveVertexCountsAttr([len(xs)])
+    curves.CreateWidthsAttr([0.4])
+    curves.CreateDisplayColorPrimvar().Set([(0.9, 0.2, 0.1)])
+    _opacity(curves, 'vertex' if len(opacities) > 1 else 'constant', opacities)
+    return curves
+
+
+@pytest.mark.parametrize('basis, opacities, ends', [
+    (None, [1.0, 0.5, 0.5, 0.0], [[1.0, 0.5], [0.5, 0.5], [0.5, 0.0]]),
+    ('bspline', [0.0, 0.3, 0.6, 0.9], [[0.3, 0.6]]),          # a B-spline's ends: (p0 + 4 p1 + p2) / 6
+])
+def test_curves_keep_their_opacity_at_each_segment_end(basis, opacities, ends):
+    st = _stage()
+    _strand(st, opacities, basis=basis)
+    desc = read_stage(st)
+    (c,) = [c for k in desc.containers for c in k.curves]
+    assert c.colors.shape == (len(ends), 2, 4) and desc.materials[c.material].vertex_opacity
+    np.testing.assert_allclose(c.colors[..., 3], ends, atol=1e-6)
+    np.testing.assert_allclose(c.colors[..., :3], np.broadcast_to([1.0, 1.0, 1.0], (len(ends), 2, 3)))
+
+
+def _strand_image(opacities, integrator):
+    """A strand along x (its segments over x in [-1.5, -0.5], [-0.5, 0.5], [0.5, 1.5]) above a grey floor, lit
+    straight down and seen from above: the frame spans x in [-2, 2] at the strand."""
+    st = _stage()
+    _strand(st, opacities)
+    floor = _mesh(st, '/Floor', [(-4, -0.5, -4), (4, -0.5, -4), (4, -0.5, 4), (-4, -0.5, 4)], (4,), (0, 3, 2, 1))
+    floor.CreateDisplayColorPrimvar().Set([(0.5, 0.5, 0.5)])
+    sun = UsdLux.DistantLight.Define(st, '/Sun')
+    sun.CreateIntensityAttr(3.0)
+    sun.CreateNormalizeAttr(True)
+    sun.AddRotateXOp().Set(-90.0)
+    cam = UsdGeom.Camera.Define(st, '/Cam')
+    cam.CreateFocalLengthAttr(50.0)
+    cam.CreateHorizontalApertureAttr(50.0)
+    cam.CreateVerticalApertureAttr(25.0)
+    cam.AddTranslateOp().Set(Gf.Vec3d(0.0, 4.0, 0.0))
+    cam.AddRotateXOp().Set(-90.0)
+    with Renderer(read_stage(st)) as r:
+        return r.render(RenderOptions(width=64, height=32, spp=16, integrator=integrator, max_depth=1,
+                                      seed=5)).image.astype(np.float64)
+
+
+@pytest.mark.parametrize('integrator', ['path', 'cook'])
+def test_a_strand_of_varying_opacity_draws_each_constant_segment_as_that_opacity_does(integrator):
+    """Opacities 0.3, 0.3, 0.8, 0.8 along the strand: its first segment (and its shadow) draws as a strand of
+    opacity 0.3 does, its last as one of 0.8, to float rounding."""
+    varying = _strand_image([0.3, 0.3, 0.8, 0.8], integrator)
+    x = -2.0 + (np.arange(64) + 0.5) * 4.0 / 64
+    for a, cols in ((0.3, (x > -1.4) & (x < -0.7)), (0.8, (x > 0.7) & (x < 1.4))):
+        same = _strand_image([a], integrator)
+        assert same[:, cols].max() > 0.05
+        np.testing.assert_allclose(varying[:, cols], same[:, cols], rtol=1e-5, atol=1e-6)
