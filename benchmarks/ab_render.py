@@ -124,10 +124,8 @@ def for_renderer(desc, render_module):
     package = render_module.__name__.rsplit('.', 2)[0]
     if hasattr(importlib.import_module(package + '.description'), 'BytePixels') or not desc.textures:
         return desc
-    from dataclasses import replace
-    from rtc.renderer.description import linear_pixels
-    return replace(desc, textures=[replace(t, pixels=linear_pixels(t.pixels), tiles=tuple(
-        None if p is None else linear_pixels(p) for p in t.tiles)) for t in desc.textures])
+    from rtc.renderer.description import float_textures
+    return float_textures(desc)
 
 
 def main(argv=None) -> int:

@@ -9,17 +9,10 @@ from __future__ import annotations
 import argparse
 import statistics
 import time
-from dataclasses import replace
 
-from rtc.renderer.description import BytePixels, linear_pixels
+from rtc.renderer.description import BytePixels, float_textures
 from rtc.renderer.host.build import build
 from rtc.renderer.usd.stage import read_stage
-
-
-def _as_floats(desc):
-    textures = [replace(t, pixels=linear_pixels(t.pixels),
-                        tiles=tuple(None if p is None else linear_pixels(p) for p in t.tiles)) for t in desc.textures]
-    return replace(desc, textures=textures)
 
 
 def _table_bytes(desc) -> tuple[int, float]:
@@ -42,7 +35,7 @@ def main() -> None:
         desc = read_stage(scene)
         eight = sum(isinstance(t.pixels, BytePixels) + sum(isinstance(p, BytePixels) for p in t.tiles)
                     for t in desc.textures)
-        floats = _as_floats(desc)
+        floats = float_textures(desc)
         kept, flt, tb, tf = 0, 0, [], []
         for _ in range(a.rounds):                    # alternating, medians
             kept, s = _table_bytes(desc)

@@ -229,6 +229,14 @@ def linear_pixels(pixels) -> np.ndarray:
     return pixels.linear() if isinstance(pixels, BytePixels) else np.asarray(pixels, np.float32)
 
 
+def float_textures(desc: 'SceneDescription') -> 'SceneDescription':
+    """`desc` with every texture's (and UDIM tile's) pixels as float32 values, as rtc kept them before 8-bit images
+    kept their bytes: the same values (benchmarks and tests compare the two, and give an older renderer these)."""
+    from dataclasses import replace
+    return replace(desc, textures=[replace(t, pixels=linear_pixels(t.pixels), tiles=tuple(
+        None if p is None else linear_pixels(p) for p in t.tiles)) for t in desc.textures])
+
+
 @dataclass
 class Texture:
     path: str                               # resolved file path

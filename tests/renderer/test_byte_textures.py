@@ -3,14 +3,13 @@ their float32 values, read through the table of what each byte decodes to (`imag
 the kernels read, and every image, is what the float32 path gives, bit for bit.  Checked against the float32 path
 computed independently (OpenImageIO's float conversion, then the sRGB decode), on generated images of 1-4 channels
 in each colour space and on the corpus's 8-bit images, and by rendering the gallery's textured stages both ways."""
-from dataclasses import replace
 from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from rtc.renderer.description import BytePixels, linear_pixels
+from rtc.renderer.description import BytePixels, float_textures
 from rtc.renderer.host.build import build
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.images import read_pixels, srgb_decode
@@ -83,13 +82,6 @@ def test_the_corpus_8_bit_images_read_as_the_float_path():
     assert checked >= 20
 
 
-def _as_floats(desc):
-    """The description with every texture's (and UDIM tile's) bytes replaced by their float32 values."""
-    textures = [replace(t, pixels=linear_pixels(t.pixels),
-                        tiles=tuple(None if p is None else linear_pixels(p) for p in t.tiles)) for t in desc.textures]
-    return replace(desc, textures=textures)
-
-
 @pytest.mark.parametrize('scene, integrator', [('emitters.usda', 'path'), ('lights.usda', 'path'),
                                                ('lights.usda', 'cook')])
 def test_textured_stages_render_from_bytes_as_from_floats(scene, integrator):
@@ -99,7 +91,7 @@ def test_textured_stages_render_from_bytes_as_from_floats(scene, integrator):
     assert any(isinstance(t.pixels, BytePixels) or any(isinstance(p, BytePixels) for p in t.tiles)
                for t in desc.textures)
     images, sizes = [], []
-    for d in (desc, _as_floats(desc)):
+    for d in (desc, float_textures(desc)):
         built = build(d)
         sizes.append((built.data.tex_data.nbytes, built.data.tex_bytes.nbytes))
         built.close()
