@@ -3,6 +3,7 @@ their float32 values, read through the table of what each byte decodes to (`imag
 the kernels read, and every image, is what the float32 path gives, bit for bit.  Checked against the float32 path
 computed independently (OpenImageIO's float conversion, then the sRGB decode), on generated images of 1-4 channels
 in each colour space and on the corpus's 8-bit images, and by rendering the gallery's textured stages both ways."""
+import os
 from pathlib import Path
 
 import numpy as np
@@ -18,7 +19,7 @@ from rtc.renderer.usd.materials import read_texture
 from rtc.renderer.usd.stage import read_stage
 
 REPO = Path(__file__).resolve().parents[2]
-CORPUS = REPO.parent / 'shared' / 'corpus'
+CORPUS = Path(os.environ.get('RTC_SHARED', REPO.parent / 'shared')) / 'corpus'   # (as tests/interop)
 
 
 def _png(path, pixels, srgb_tag=None):
@@ -71,7 +72,7 @@ def test_a_float_image_keeps_its_floats(tmp_path):
 def test_the_corpus_8_bit_images_read_as_the_float_path():
     files = sorted(p for p in CORPUS.rglob('*') if p.suffix.lower() in ('.png', '.jpg', '.jpeg'))[:40]
     if not files:
-        pytest.skip(f'corpus not found at {CORPUS}')
+        pytest.skip(f'corpus not found at {CORPUS} (shared/ beside the repository, or set RTC_SHARED)')
     checked = 0
     for f in files:
         for colour_space in ('auto', 'raw'):

@@ -3,6 +3,7 @@ the material gets its own primvar's value (found with inheritance: an instance's
 reader's fallback where it has none, its per-corner colours where displayColor varies over a mesh, as Storm
 binds a gprim's primvars to its shader.  The images are checked against the same scenes with the values
 authored on the shader itself."""
+import os
 from pathlib import Path
 
 import numpy as np
@@ -14,7 +15,7 @@ from rtc.renderer.options import RenderOptions
 from rtc.renderer.usd.stage import read_stage
 
 RED, BLUE = (0.8, 0.1, 0.1), (0.1, 0.2, 0.9)
-CORPUS = Path(__file__).resolve().parents[3] / 'shared' / 'corpus' / 'usd'
+CORPUS = Path(os.environ.get('RTC_SHARED', Path(__file__).resolve().parents[3] / 'shared')) / 'corpus' / 'usd'
 
 
 def _material(st, path, readers=None, constants=None):
