@@ -124,11 +124,11 @@ def varying_display_color(prim: Usd.Prim, time, name: str = DISPLAY_COLOR):
 
 
 def varying_display_opacity(prim: Usd.Prim, time, name: str = DISPLAY_OPACITY):
-    """(values (k,) clamped to [0, 1], interpolation) of a Mesh's or Points' own primvars:displayOpacity (or the
-    scalar primvar `name`: `corner_primvars`) where it varies over it, else None.  Such a mesh keeps it per triangle
-    corner, a cloud a value a point, curves one at each segment end (the fourth channel of `Mesh.colors`,
-    `Sphere.colors`, `Curves.colors`), which the fallback material or a material that reads it for its opacity
-    multiplies its opacity by."""
+    """(values (k,) clamped to [0, 1], interpolation) of the own primvars:displayOpacity (or the scalar primvar
+    `name`: `corner_primvars`) of a gprim of VARYING_OPACITY_TYPES where it varies over it, else None.  A mesh keeps
+    it per triangle corner, a cloud a value a point, curves one at each segment end (the fourth channel of
+    `Mesh.colors`, `Sphere.colors`, `Curves.colors`), which the fallback material or a material that reads it for its
+    opacity multiplies its opacity by."""
     v = _varying(prim, time, name, 1, VARYING_OPACITY_TYPES)
     return None if v is None else (np.clip(v[0][:, 0], 0.0, 1.0), v[1])
 
