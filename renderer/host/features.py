@@ -66,6 +66,7 @@ def scene_features(data, options, ctab: np.ndarray, use_time: bool, lights=None)
                          or np.any(mf[:, MF_GAIN:MF_GAIN + 2] != 1.0)),
         light_shapes=bool(path and lights is not None and lights.shapes.shape[0] > 0),
         surface_lights=bool(path and lights is not None and lights.n_surface > 0),
+        tile_lights=bool(path and lights is not None and lights.leaf_k.shape[0] > 0),
         textures=bool(np.any(mi[:, [MI_DIFFUSE_TEX, MI_SPECULAR_TEX, MI_EMISSION_TEX]] >= 0)
                       or np.any(mi[:, MI_SCALAR_TEX:MI_SCALAR_TEX + 5] >= 0) or np.any(mi[:, MI_NORMAL_TEX] >= 0)),
         normal_maps=bool(np.any(mi[:, MI_NORMAL_TEX] >= 0)),

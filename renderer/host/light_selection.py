@@ -1,9 +1,10 @@
 """The lights as the path integrator samples them: one light per shading point, chosen from the
 light tree (`light_tree.py`: by power, distance and orientation, in O(log n)), so the cost of a sample
 grows only with the logarithm of the number of lights and far or turned-away lights are rarely
-chosen; the geometry of the light shapes that BSDF rays can meet (in the path integrator's top level,
-found in O(log n) per ray by the same query as the surfaces: `build.path_top`; the cook integrator
-never builds it); the dome's sampling tables.
+chosen (at a path's first vertex, in a scene of many lights, from its image tile's table, which weighs every
+light with the tree's importance of its leaf: `kernel/tile_lights.py`, the `leaf_*` fields); the geometry of
+the light shapes that BSDF rays can meet (in the path integrator's top level, found in O(log n) per ray by the
+same query as the surfaces: `build.path_top`; the cook integrator never builds it); the dome's sampling tables.
 
 The tree's phi of a light (only ratios matter, and any positive choice keeps the estimator unbiased) is
 its largest radiant *intensity*, so that a leaf's importance, phi cos / d^2, is the irradiance the light
@@ -32,6 +33,7 @@ import numpy as np
 from .. import description as D
 from ..kernel.tables import LF_AREA, LF_H, LF_LENGTH, LF_M, LF_RADIUS, LF_W
 from ..kernel.trace import MASK_FACING, MASK_LIGHT_SHAPES
+from ..kernel.tile_lights import TILE_LIGHTS_MAX, TILE_LIGHTS_MIN
 from .light_images import image_tables
 from .features import see_through
 from .light_tree import light_tree
@@ -41,7 +43,7 @@ PathLights = namedtuple('PathLights', ['tree_f', 'tree_i', 'trail', 'depth', 'un
                                        'infinite', 'has_dome', 'image_i', 'image_cdf', 'light_group', 'geom_off',
                                        'prim_light', 'facing', 'surface_first', 'n_surface', 'sl_f', 'sl_i', 'sl_tri',
                                        'sl_cdf', 'sl_row', 'sl_idx', 'direct_base', 'direct', 'see_through',
-                                       'shadow_packets'])
+                                       'shadow_packets', 'leaf_f', 'leaf_k', 'leaf_col'])
 _LUM = np.array([0.2126, 0.7152, 0.0722])
 
 
@@ -175,7 +177,7 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
     radius = 0.5 * float(np.linalg.norm(ext)) if np.all(np.isfinite(ext)) and np.all(ext >= 0) else 1.0
     image_i, image_cdf, image_mean = image_tables(desc)
     surf = surface_lights(data, len(desc.lights), _warner(desc)) if data is not None else None
-    tree_f, tree_i, trail, depth, unbounded, n_bounded = light_tree(
+    tree_f, tree_i, trail, depth, unbounded, n_bounded, leaves = light_tree(
         desc, li_f, light_phi(desc, li_f, max(radius, 1e-30), image_mean), surf.bounds if surf else ())
     types = [l.type for l in desc.lights]
     shapes = [k for k, t in enumerate(types) if t in (D.RECT, D.DISK, D.SPHERE, D.CYLINDER)]
@@ -190,8 +192,20 @@ def path_lights(desc: D.SceneDescription, li_f: np.ndarray, bounds: np.ndarray, 
                       direct_base=-1, direct=np.zeros((0, 3), np.int64),
                       see_through=see_through(data) if data is not None else any(
                           m.model == D.PREVIEW_SURFACE and m.opacity < 1.0 for m in desc.materials),
-                      shadow_packets=bool(shadow_packets)), \
+                      shadow_packets=bool(shadow_packets), **_leaf_fields(leaves, len(depth))), \
         (geometry, masks) if geometry else None
+
+
+def _leaf_fields(leaves, n_lights: int) -> dict:
+    """The PathLights fields of `tile_lights.py` (leaf_f: every light's bounds as one block row of the tree,
+    leaf_k: the light of each column, leaf_col: the column of each light or -1) where the scene has
+    TILE_LIGHTS_MIN to TILE_LIGHTS_MAX lights with a position; empty tables elsewhere (the tree alone)."""
+    leaf_f, leaf_k = leaves
+    col = np.full(n_lights, -1, np.int64)
+    if not TILE_LIGHTS_MIN <= len(leaf_k) <= TILE_LIGHTS_MAX:
+        return {'leaf_f': np.zeros((1, 0), np.float32), 'leaf_k': np.zeros(0, np.int64), 'leaf_col': col}
+    col[leaf_k] = np.arange(len(leaf_k))
+    return {'leaf_f': np.ascontiguousarray(leaf_f.reshape(1, -1)), 'leaf_k': leaf_k, 'leaf_col': col}
 
 
 def _warner(desc: D.SceneDescription):

@@ -220,8 +220,8 @@ def _node_bounds(bounds: list, order: np.ndarray, levels: list) -> tuple[np.ndar
     return rec, rows
 
 
-def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray, dict]:
-    """(tree_f, tree_i, {light: (trail, depth)}) of the balanced binary tree over `bounds` (one per
+def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
+    """(tree_f, tree_i, {light: (trail, depth)}, leaves) of the balanced binary tree over `bounds` (one per
     light, `median_order`), stored in blocks of TREE_LEVELS levels (`tables.LIGHT_TREE`): a block holds the
     nodes below its root node down to TREE_LEVELS levels (the root block fewer, so that the deepest
     blocks are full), so that the kernel computes their importances in one vectorised loop and walks
@@ -230,9 +230,11 @@ def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray,
     block's last level the block (> 0) it is the root of, 0 for the block's other nodes, -1 for an empty
     slot (phi 0: never chosen).  A light's trail has bit d set where its way takes the second child at
     depth d; its depth is the number of binary choices on that way (a lone light: 1, between it and an
-    empty slot)."""
+    empty slot).  leaves float32 (LIGHT_TREE.width, len(lights)): each light's own bounds, field-major, in the
+    order of `lights` (`kernel/tile_lights.py` weighs every light at once from them)."""
     if not lights:
-        return np.zeros((0, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.zeros((0, TREE_SLOTS), np.int64), {}
+        return (np.zeros((0, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.zeros((0, TREE_SLOTS), np.int64), {},
+                np.zeros((LIGHT_TREE.width, 0), np.float32))
     order, levels = median_order(0.5 * (np.array([b[0] for b in bounds]) + np.array([b[1] for b in bounds])))
     records, inner = _node_bounds(bounds, order, levels)
     rows_i, placed, leaves = [], [], {}
@@ -269,7 +271,8 @@ def build_tree(lights: list[int], bounds: list) -> tuple[np.ndarray, np.ndarray,
     b, slot, node = np.array(placed).T
     tree_f[b, :, slot] = records[node]
     return (tree_f.astype(np.float32).reshape(-1, LIGHT_TREE.width * TREE_SLOTS),
-            np.array(rows_i, np.int64).reshape(-1, TREE_SLOTS), leaves)
+            np.array(rows_i, np.int64).reshape(-1, TREE_SLOTS), leaves,
+            np.ascontiguousarray(records[:len(lights)].T, np.float32))
 
 
 def leaf_record(tree_f: np.ndarray, tree_i: np.ndarray, light: int) -> np.ndarray:
@@ -279,14 +282,15 @@ def leaf_record(tree_f: np.ndarray, tree_i: np.ndarray, light: int) -> np.ndarra
 
 
 def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, extra=()):
-    """(tree_f, tree_i, trail, depth, unbounded) of the scene's lights (`power`: one per light) and of
-    `extra` lights (bounds as `light_bounds` gives them: the emissive surfaces, `surface_lights.py`),
-    numbered after the scene's."""
+    """(tree_f, tree_i, trail, depth, unbounded, n_bounded, (leaf bounds, their lights)) of the scene's lights
+    (`power`: one per light) and of `extra` lights (bounds as `light_bounds` gives them: the emissive surfaces,
+    `surface_lights.py`), numbered after the scene's; the leaves' bounds as `build_tree` gives them, and the light
+    of each (int64)."""
     n = max(len(desc.lights) + len(extra), 1)
     idx, bounds = light_bounds(desc, li_f, power)
     idx += [len(desc.lights) + j for j in range(len(extra))]
     bounds += list(extra)
-    tree_f, tree_i, leaves = build_tree(idx, bounds)
+    tree_f, tree_i, leaves, leaf_f = build_tree(idx, bounds)
     trail = np.zeros(n, np.int64)
     depth = np.full(n, -1, np.int64)                   # -1: not in the tree
     for k, (t, d) in leaves.items():
@@ -294,4 +298,4 @@ def light_tree(desc: D.SceneDescription, li_f: np.ndarray, power: np.ndarray, ex
     if len(tree_f) == 0:                               # kernels index row 0: a node of empty slots
         tree_f, tree_i = np.zeros((1, LIGHT_TREE.width * TREE_SLOTS), np.float32), np.full((1, TREE_SLOTS), -1, np.int64)
     unbounded = [k for k, l in enumerate(desc.lights) if l.type in (D.DOME, D.DISTANT) and power[k] > 0.0]
-    return tree_f, tree_i, trail, depth, np.array(unbounded, np.int64), len(idx)
+    return tree_f, tree_i, trail, depth, np.array(unbounded, np.int64), len(idx), (leaf_f, np.array(idx, np.int64))

@@ -148,7 +148,8 @@ class Renderer:
         scratch = self._scratch.setdefault(o.integrator, [])
         while len(scratch) < n:
             scratch.append(new_scratch(len(self.built.data.li_type), self.packet_width,
-                                       self.packet_width if o.integrator == 'path' else 16))
+                                       self.packet_width if o.integrator == 'path' else 16,
+                                       self.path_lights().leaf_k.shape[0] if o.integrator == 'path' else 0))
         work = np.zeros(1, np.int64)             # the pass's tile counter (tiles.next_tile)
         data, handle, entry = self.built.data, self.built.handle, setup.entry
         if ray_record is not None:

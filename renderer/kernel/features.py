@@ -62,6 +62,7 @@ class Features:
                              # inputs:specular other than 1: `lights.lobe_gains`)
     light_shapes: bool       # a light BSDF rays can hit (path: rect, disk, sphere, cylinder)
     surface_lights: bool     # path: an emissive surface is a light (host/surface_lights.py)
+    tile_lights: bool        # path: a tile's first vertices choose their lights from its table (`tile_lights.py`)
     textures: bool           # a material with an image texture
     normal_maps: bool        # a UsdPreviewSurface whose normal a texture gives (`normal_maps.py`)
     udim: bool               # a UDIM texture (tiles 1001, 1002, ...: `textures.udim_tile`)
@@ -101,9 +102,9 @@ class Features:
 ALL = Features(samplers=bits(SAMPLER_IDS.values()), filters=bits(FILTER_IDS.values()),
                models=bits(D.MODEL_NAMES.values()), lights=bits(LIGHT_IDS.values()), course_lights=True,
                lux_lights=True, dome_texture=True, rect_texture=True, shaping=True, ies=True, light_gains=True,
-               light_shapes=True, surface_lights=True, textures=True, normal_maps=True, udim=True, opacity=True,
-               emission=True, clearcoat=True, spheres=True, curves=True, normals=True, uvs=True, colors=True,
-               xf_motion=True, ortho=True, lens=True, time=True)
+               light_shapes=True, surface_lights=True, tile_lights=True, textures=True, normal_maps=True, udim=True,
+               opacity=True, emission=True, clearcoat=True, spheres=True, curves=True, normals=True, uvs=True,
+               colors=True, xf_motion=True, ortho=True, lens=True, time=True)
 
 # the general kernel's values, imported by the kernel modules
 globals().update(ALL.constants())

@@ -46,7 +46,7 @@ from .materials import (colors, direct, direct_parts, emission, fresnel_dielectr
 from .normal_maps import mapped_normal
 from .ray_record import record_if
 from .records import (Continuation, Lanes, Path, PathState, Ray, SampleKey, Scratch, ShadingPoint, ShadowQueue,
-                      Tracer)
+                      TileLights, Tracer)
 from .samplers import SOBOL, sample_1d, sample_2d, sobol_packet
 from .shapes import corner_color, corner_opacity, hit_gprim, surface
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_IOR, MF_ROUGH, MI_MODEL, MI_NORMAL_TEX, MI_SCALAR_TEX, MI_VERTEX_COLOR,
@@ -69,12 +69,13 @@ def _n_lights(S):
     return S.li_type.shape[0] if S.li_type[0] >= 0 else 0
 
 
-def new_scratch(n_lights, width=16, camera_width=16):
+def new_scratch(n_lights, width=16, camera_width=16, tile_lights=0):
     """One thread's scratch for `render_tiles`, allocated by the host (numpy) once per render: the camera
     `Packet`, the single-ray buffer (f, u), matrix scratch, the tile's counters, the first-hit
-    `ShadowQueue` and the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
-    vectorise).  The queue's packets are traced `width` (16 or 8: `embree.Device.packet_width`) rays at a
-    time, the camera packets `camera_width`.  The kernels allocate nothing."""
+    `ShadowQueue`, the camera stage's `Lanes` (structure of arrays, so that its loops over the lanes
+    vectorise) and the path integrator's `TileLights` for `tile_lights` lights (`tile_lights.py`; 0: none).
+    The queue's packets are traced `width` (16 or 8: `embree.Device.packet_width`) rays at a time, the camera
+    packets `camera_width`.  The kernels allocate nothing."""
     f, u = alloc_ray_buffer()
     # the queue: packet, lane of each ray, unoccluded contributions, count, first-hit direct light per
     # lane, and the first hit's light samples (pairs light_dim(0, k): rows 2k, 2k + 1), drawn for the
@@ -88,7 +89,12 @@ def new_scratch(n_lights, width=16, camera_width=16):
                   np.zeros((PACKET, 3)), np.zeros((4, PACKET)), np.zeros((2, PACKET)), np.zeros((2, PACKET), np.uint32),
                   np.zeros((6, PACKET), np.uint32))
     return Scratch(alloc_packet(camera_width), f, u, np.empty((3, 4)), np.empty(12, np.float32), np.zeros(N_COUNTERS, np.int64),
-                   queue, lanes, None)
+                   queue, lanes, None, new_tile_lights(tile_lights))
+
+
+def new_tile_lights(n=0):
+    """A thread's `TileLights` for n lights (`tile_lights.py`; 0: a scene whose light tree chooses alone)."""
+    return TileLights(np.zeros(n, np.float32), np.zeros(n), np.zeros(n + 1), np.zeros(2))
 
 
 @nb.njit(**STAGE_JIT)
@@ -523,7 +529,7 @@ def render_tiles(S, scene, pp, scratch, work, accum, counters):
         for k in range(N_COUNTERS):
             counts[k] = 0
         tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
-                    scratch.rec)
+                    scratch.rec, scratch.tl)
         render_tile(S, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

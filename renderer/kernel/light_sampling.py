@@ -44,6 +44,7 @@ from .lobe_sampling import (NO_PLANE, NO_WINDOW, cauchy_sample, lobe_area_pdf, l
                             rect_coords, round_window)
 from .rect_sampling import image_density, image_sampled, sample_image_point
 from .tables import LF_AREA, LF_COS_MAX, LF_H, LF_LENGTH, LF_M, LF_RAD, LF_RADIUS, LF_W
+from .tile_lights import vertex_pmf
 from .trace import MASK_ALL, MASK_FACING, MASK_LIGHT_SHAPES, MASK_SURFACES
 from .vecmath import cross, dot, normalize, onb, sub, to_world, toward, turn
 INF = math.inf
@@ -503,7 +504,7 @@ def shape_mask(L, d):
 
 
 @nb.njit(**_JIT)
-def shape_emission(S, L, k, ray, te, prev):
+def shape_emission(S, L, k, ray, te, prev, tl):
     """MIS-weighted radiance of light shape k, which Embree found at distance te along ray = (o, d) (in
     the path integrator's top level: `host/build.path_top`); zero unless the exact test
     `hit_shape` agrees (the emitting side, inside the disk, this crossing of a sphere: its far side is
@@ -511,9 +512,10 @@ def shape_emission(S, L, k, ray, te, prev):
     bsdf pdf, mis mode, lobe, share): the vertex the ray left, its normal, the pdf with which its BSDF drew d,
     0 = weight by the power heuristic, 1 = weight 1 (camera ray, delta lobe, or BSDF sampling alone),
     2 = weight 0 (next-event estimation alone), its `lobe_sampling.glossy_lobe` (`sample_ld_lobe`) and the
-    diffuse share of its BSDF value along d (`lights.gained`; -1: a camera ray)."""
+    diffuse share of its BSDF value along d (`lights.gained`; -1: a camera ray) and whether its light samples were
+    chosen by the tile's choice `tl` (`tile_lights.vertex_pmf`)."""
     o, d = ray
-    p0, n0, pb, mode, lobe = prev[0], prev[1], prev[2], prev[3], prev[4]
+    p0, pb, mode, lobe = prev[0], prev[2], prev[3], prev[4]
     if mode == 2:
         return ZERO
     t, pl = hit_shape(S, L, k, o, d, INF, p0)
@@ -524,7 +526,7 @@ def shape_emission(S, L, k, ray, te, prev):
         win, plane, lim = light_window(S, k, p0, lobe)
         if win[0]:
             pl = lobe_pdf(win, plane, lim, p0, q)
-    w = 1.0 if mode == 1 else _power(pb, light_pmf(L, p0, n0, k) * pl)
+    w = 1.0 if mode == 1 else _power(pb, vertex_pmf(L, tl, prev, k) * pl)
     Le = (w * S.li_f[k, LF_RAD], w * S.li_f[k, LF_RAD + 1], w * S.li_f[k, LF_RAD + 2])
     return gained(S, k, prev[5], shaped(S, k, d, _imaged_at(S, k, q, Le)))
 

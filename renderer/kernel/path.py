@@ -5,7 +5,8 @@ At every vertex a path collects the light it sees (emission of the light shapes 
 crossed, of the surface it hit - emissive surfaces are lights too, `surface_lights.py` -, of the sky
 if it escaped: MIS-weighted against the light sample that could have found the same light), then
 samples one light chosen from the light tree (`light_tree.choose_lights`: by power, distance and
-orientation; one or two more where one light outshines the rest) towards which it casts a shadow ray,
+orientation; one or two more where one light outshines the rest; at the first vertex of a scene of many
+lights, from its tile's table: `tile_lights.py`) towards which it casts a shadow ray,
 then samples its BSDF for the next ray (`bsdf.sample_seen`, from the vertex's `bsdf.seen_from` record,
 which its light samples evaluate too).  Delta lights (point, distant without angle) are found by
 next-event estimation alone, delta lobes (mirror, dielectric) by BSDF sampling alone.  `max_depth` D
@@ -62,10 +63,11 @@ from .samplers import sample_1d_inlined as sample_1d, sample_2d_inlined as sampl
 from .surface_lights import sample_surface, shadow_ray, surface_emission
 from .tables import (C_FAR, C_NEAR, MF_ATTEN, MF_CC_ROUGH, MF_CLEARCOAT, MF_EXP, MF_IOR, MF_MIRROR, MF_ROUGH,
                      S_CC_ROUGH, S_CLEARCOAT, SLI_MAT)
+from .tile_lights import build_tile_lights, choose_tile_lights, tiled
 from .tiles import claim_tile
-from .trace import (GEOM_ID, INST_ID, INST_PRIM_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
+from .trace import (GEOM_ID, INST_ID, INVALID, MASK, MASK_ALL, MASK_SURFACES, PACKET, PRIM_ID, TFAR,
                     intersect1_masked, intersect1_surfaces, intersect_packet_coherent, lane_hit,
-                    occluded1_surfaces, slot)
+                    occluded1_surfaces, placed_hit, slot)
 from .vecmath import add, dot, offset_origin, onb, to_world
 
 STRATEGIES = {'mis': 0, 'nee': 1, 'bsdf': 2}
@@ -107,16 +109,19 @@ def queues_shadows(L):
 @nb.njit(**STAGE_JIT)
 def next_event(S, L, tr, key, v, vtx, b, strategy):
     """Light from the light samples at path vertex v (its `Vertex` vtx, its BSDF b seen from the
-    vertex's wo: `bsdf.seen_from`): one, and a side
-    sample or two where the light tree splits (`light_tree.choose_lights`; each of another light, all
-    from the same light-point sample), each MIS-weighted against BSDF sampling; not yet multiplied by
+    vertex's wo: `bsdf.seen_from`): one, and a side sample or two where the light tree splits
+    (`light_tree.choose_lights`; at a first vertex the tile's choice, `tile_lights.py`; each of another light,
+    all from the same light-point sample), each MIS-weighted against BSDF sampling; not yet multiplied by
     the path throughput."""
     lone = lone_light(L)
     if lone >= 0:
         main, side1, side2 = (lone, 1.0), NO_SAMPLE, NO_SAMPLE
     else:
-        main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, sample_1d(key.sampler, key.seed, key.pixel, key.index,
-                                                                       key.spp, path_dim(v, P_CHOICE)))
+        u = sample_1d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_CHOICE))
+        if tiled(L, v):                                              # a first vertex: the tile's choice
+            main, side1, side2 = choose_tile_lights(L, tr.tl, u)
+        else:
+            main, side1, side2 = choose_lights(L, vtx.p, vtx.ns, u)
     if main[0] < 0 and side1[0] < 0 and side2[0] < 0:
         return BLACK
     u = sample_2d(key.sampler, key.seed, key.pixel, key.index, key.spp, path_dim(v, P_LIGHT))
@@ -193,18 +198,6 @@ def _defer_shadow(tr, vtx, d, smax, c):
     _enqueue_shadow(tr, vtx.lane, vtx.po, d, smax, vtx.time, c, MASK_SURFACES)
 
 
-@nb.njit(**SHADING_INLINE_JIT)
-def placed_hit(L, u):
-    """Give a hit on geometry of the path integrator's top level itself (`host/build.path_top`: a scene
-    of one level), which Embree reports without an instance, the instance ids of its placement and its
-    geometry id in the prototype, as in the built top level (`shapes.hit_gprim` reads them)."""
-    if u[INST_ID] == INVALID and u[GEOM_ID] != INVALID and L.direct.shape[0] > 0:
-        k = np.int64(u[GEOM_ID]) - L.direct_base
-        u[INST_ID] = L.direct[k, 0]
-        u[INST_PRIM_ID] = L.direct[k, 1]
-        u[GEOM_ID] = L.direct[k, 2]
-
-
 @nb.njit(**STAGE_JIT)
 def shadow_transmittance(S, L, tr, o, d, smax, time):
     """The fraction of light that crosses the shadow ray (o, d) up to smax: 0 behind an opaque
@@ -265,7 +258,7 @@ def find_surface(S, L, tr, path, ray, prev, packet, v):
                 break
             te = float(tr.f[TFAR])
             k = L.prim_light[L.geom_off[tr.u[GEOM_ID]] + tr.u[PRIM_ID]]
-            c = shape_emission(S, L, k, ray, te, prev)
+            c = shape_emission(S, L, k, ray, te, prev, tr.tl)
             e = (e[0] + c[0], e[1] + c[1], e[2] + c[2])
             tn = te + 1e-5 * max(te, 1e-3)
             record_if(tr.rec, tr.tile, RAYS_SECONDARY, o, d, tn, np.inf, path.time)
@@ -319,7 +312,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
     T = (1.0, 1.0, 1.0)
     A = (1.0, 1.0, 1.0)
     es = 1.0                                # 1/eta^2 factors of the throughput, undone for roulette
-    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE, NO_LOBE, CAMERA_SHARE)
+    prev = PrevVertex(o, (0.0, 0.0, 1.0), 0.0, W_ONE, NO_LOBE, CAMERA_SHARE, False)
     after = W_POWER if strategy == MIS else (W_ZERO if strategy == NEE_ONLY else W_ONE)
     depth = 0
     for v in range(max_depth + 1 + PASS_THROUGH_MAX):
@@ -375,7 +368,7 @@ def trace_path(S, L, tr, pp, path, ray, packet):
         else:
             break
         T = (T[0] * w[0], T[1] * w[1], T[2] * w[2])
-        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, lobe, _share(sb, il, delta))
+        prev = PrevVertex(p, ns, pdf, W_ONE if delta else after, lobe, _share(sb, il, delta), tiled(L, v))
         d = wi
         depth += 1
         if depth >= RR_DEPTH:
@@ -396,6 +389,8 @@ def path_tile(S, L, tr, pp, tile, packet, lanes, accum):
     ids = lanes.ids
     total = (tile.x1 - tile.x0) * (tile.y1 - tile.y0) * (pp.s1 - pp.s0)
     cursor = (pp.s0, tile.x0, tile.y0)
+    if tiled(L, 0) and total > 0:
+        build_tile_lights(S, L, tr, pp, tile)
     for first in range(0, total, PACKET):
         n, cursor = next_samples(pp, tile, lanes, first, cursor)
         camera_samples(pp, lanes, n)
@@ -450,7 +445,7 @@ def render_tiles_path(S, L, scene, pp, scratch, work, accum, counters):
         for k in range(N_COUNTERS):
             counts[k] = 0
         tr = Tracer(scene, scratch.f, scratch.u, scratch.m, scratch.m32, counts, scratch.queue, tile.index,
-                    scratch.rec)
+                    scratch.rec, scratch.tl)
         path_tile(S, L, tr, pp, tile, scratch.packet, scratch.lanes, accum)
         for k in range(N_COUNTERS):
             counters[tile.index, k] += counts[k]

@@ -39,13 +39,13 @@ import numba as nb
 from .curves import evaluate, tube_area_element, tube_point
 from .features import F_CURVES, F_SPHERES, F_TEXTURES, F_XF_MOTION
 from .jit import SHADING_INLINE_JIT as _JIT
-from .light_tree import light_pmf
 from .materials import opacity
 from .shapes import corner_opacity, sphere_st, triangle_st
 from .tables import (CAP_PLANES, CURVE_CAP, CURVE_LINEAR, GP_CLOUD, GP_CURVES, SLF_AREA, SLF_AXES, SLF_CENTER,
                      SLF_CTRL, SLF_INV, SLF_RAD, SLF_RADIUS, SLI_CAP0, SLI_COUNT, SLI_CURVE, SLI_ELLIPSOID,
                      SLI_EMISSION_TEX, SLI_FIRST, SLI_GPRIM, SLI_INST, SLI_INST_PRIM, SLI_MOVING, SLI_OPACITY_MAT)
 from .textures import sample_texture
+from .tile_lights import vertex_pmf
 from .trace import GEOM_ID, INST_ID, INST_PRIM_ID, PRIM_ID, instance_transform
 from .vecmath import (cofactor_dir, cofactors, cross, dot, normalize, offset_origin, onb, sub, to_world, toward, turn,
                       xform_point)
@@ -503,7 +503,7 @@ def surface_emission(S, L, tr, Le, hit, prev):
             if j < 0:
                 return Le
             k = j + L.surface_first
-    p0, n0, pb, mode = prev[0], prev[1], prev[2], prev[3]
+    p0, pb, mode = prev[0], prev[2], prev[3]
     if mode == 2:
         return ZERO
     if mode == 1:
@@ -526,6 +526,6 @@ def surface_emission(S, L, tr, Le, hit, prev):
             return Le
     else:
         area = L.sl_f[j, SLF_AREA]
-    pl = light_pmf(L, p0, n0, k) * dot(v, v) / (cos_l * area)
+    pl = vertex_pmf(L, tr.tl, prev, k) * dot(v, v) / (cos_l * area)
     w = pb * pb / (pb * pb + pl * pl)
     return w * Le[0], w * Le[1], w * Le[2]

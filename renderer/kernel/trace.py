@@ -43,7 +43,7 @@ import numba
 import numpy as np
 from numba import types
 
-from .jit import INLINE_JIT
+from .jit import INLINE_JIT, SHADING_INLINE_JIT
 from .records import Hit, Packet
 
 __all__ = [
@@ -343,3 +343,15 @@ def lane_hit(packet, lane, f, u):
     u[INST_ID] = cu[slot(packet, INST_ID, lane)]
     u[INST_PRIM_ID] = cu[slot(packet, INST_PRIM_ID, lane)]
     return u[GEOM_ID] != INVALID
+
+
+@numba.njit(**SHADING_INLINE_JIT)
+def placed_hit(L, u):
+    """Give a hit on geometry of the path integrator's top level itself (`host/build.path_top`: a scene
+    of one level), which Embree reports without an instance, the instance ids of its placement and its
+    geometry id in the prototype, as in the built top level (`shapes.hit_gprim` reads them)."""
+    if u[INST_ID] == INVALID and u[GEOM_ID] != INVALID and L.direct.shape[0] > 0:
+        k = np.int64(u[GEOM_ID]) - L.direct_base
+        u[INST_ID] = L.direct[k, 0]
+        u[INST_PRIM_ID] = L.direct[k, 1]
+        u[GEOM_ID] = L.direct[k, 2]

@@ -16,6 +16,7 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.light_selection import path_lights
 from rtc.renderer.kernel import lobe_sampling as R
 from rtc.renderer.kernel.bsdf import preview_bsdf, seen_from
+from rtc.renderer.kernel.integrator import new_tile_lights
 from rtc.renderer.kernel.light_sampling import hit_shape, light_window, sample_ld_lobe, shape_emission
 from rtc.renderer.kernel.light_tree import light_pmf
 from rtc.renderer.kernel.records import Vertex
@@ -189,7 +190,8 @@ def test_a_bsdf_ray_meeting_the_light_is_weighed_by_the_light_samples_pdf(lit, c
         t, pu = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
         assert t == pytest.approx(dist, rel=1e-9)
         pb = pmf * pdf
-        e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pb, 0, lobe, (-1.0, -1.0, -1.0)))
+        e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pb, 0, lobe, (-1.0, -1.0, -1.0), False),
+                           new_tile_lights())
         assert e[0] == pytest.approx(0.5 * S.li_f[0, LF_RAD], rel=1e-6)
         met += 1
     assert met > 50

@@ -183,6 +183,7 @@ def test_a_ray_meeting_an_imaged_rect_gets_the_light_samples_emission_and_pdf(wh
     from rtc.renderer.host.build import build
     from rtc.renderer.host.light_selection import path_lights
     from rtc.renderer.kernel import lobe_sampling as R
+    from rtc.renderer.kernel.integrator import new_tile_lights
     from rtc.renderer.kernel.light_sampling import hit_shape, sample_ld_lobe, shape_emission
     from rtc.renderer.kernel.light_tree import light_pmf
     from tests.accuracy.test_lobe_sampling import CENTRE, H, W, vertex
@@ -202,7 +203,8 @@ def test_a_ray_meeting_an_imaged_rect_gets_the_light_samples_emission_and_pdf(wh
                 continue
             t, _ = hit_shape(S, L, 0, vtx.p, wi, math.inf, vtx.p)
             assert t == pytest.approx(dist, rel=1e-9)
-            e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pmf * pdf, 0, lobe, (-1.0, -1.0, -1.0)))
+            e = shape_emission(S, L, 0, (vtx.p, wi), t, (vtx.p, vtx.ns, pmf * pdf, 0, lobe, (-1.0, -1.0, -1.0), False),
+                               new_tile_lights())
             assert np.allclose(e, 0.5 * np.asarray(Le), rtol=1e-6, atol=0.0), (e, Le)
             spread.append(Le[0])
             met += 1
