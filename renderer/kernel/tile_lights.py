@@ -37,7 +37,10 @@ from .trace import intersect1_surfaces, placed_hit
 
 PILOTS = 4                         # a tile's pilot rays: a PILOTS x PILOTS grid over its pixels
 FLOOR = 0.05                       # the uniform share of the choice
-TILE_LIGHTS_MIN, TILE_LIGHTS_MAX = 64, 4096
+# lights with a position where the table is built: it reached equal error sooner on 16 to 2,000 lights (diffuse and
+# glossy stages, gallery stages of emissive surfaces), later on 4,000 (`benchmarks/RESULTS.md`, "Many lights: a
+# tile's first vertices")
+TILE_LIGHTS_MIN, TILE_LIGHTS_MAX = 16, 2048
 TOP, REST = 0, 1                   # TileLights.head: the light sampled at every first vertex (a column) and the
                                    # others' share, where one outshines the rest (else 0)
 

@@ -130,11 +130,15 @@ def many():
 
 
 def test_the_scene_uses_the_tile_choice(many):
+    """90 lights with a position: a column each (the dome none); a scene of fewer than TILE_LIGHTS_MIN has no
+    table (the tree chooses at every vertex)."""
     with Renderer(many) as r:
         L = r.path_lights()
         assert TILE_LIGHTS_MIN <= L.leaf_k.shape[0] == 90
         assert sorted(L.leaf_k.tolist()) == list(range(90))
         assert all(L.leaf_col[k] >= 0 for k in range(90)) and L.leaf_col[90] == -1
+    with Renderer(_many_lights(n=TILE_LIGHTS_MIN - 1)) as r:
+        assert r.path_lights().leaf_k.shape[0] == 0
 
 
 def _render(desc, tiled, **kw):
