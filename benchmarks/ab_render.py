@@ -120,12 +120,24 @@ def load(path: str):
 def for_renderer(desc, render_module):
     """`desc` as the renderer of `render_module` reads it: one older than 8-bit textures kept as bytes
     (`description.BytePixels`) is given the textures' float32 values, which its kernels read as the new ones read
-    the bytes (the same values, bit for bit)."""
+    the bytes (the same values, bit for bit); one that keeps bytes too, its own `BytePixels` (it tests the
+    class of its own copy of the module)."""
     package = render_module.__name__.rsplit('.', 2)[0]
-    if hasattr(importlib.import_module(package + '.description'), 'BytePixels') or not desc.textures:
+    own = getattr(importlib.import_module(package + '.description'), 'BytePixels', None)
+    if not desc.textures:
         return desc
-    from rtc.renderer.description import float_textures
-    return float_textures(desc)
+    from dataclasses import replace
+
+    from rtc.renderer.description import BytePixels, float_textures
+    if own is None:
+        return float_textures(desc)
+    if own is BytePixels:
+        return desc
+
+    def theirs(p):
+        return own(p.data, p.srgb) if isinstance(p, BytePixels) else p
+    return replace(desc, textures=[replace(t, pixels=theirs(t.pixels), tiles=tuple(
+        None if p is None else theirs(p) for p in t.tiles)) for t in desc.textures])
 
 
 def main(argv=None) -> int:
