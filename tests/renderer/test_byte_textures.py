@@ -15,7 +15,7 @@ from rtc.renderer.host.build import build
 from rtc.renderer.host.render import Renderer
 from rtc.renderer.images import read_pixels, srgb_decode
 from rtc.renderer.options import RenderOptions
-from rtc.renderer.usd.materials import read_texture
+from rtc.renderer.usd.texture_files import read_texture
 from rtc.renderer.usd.stage import read_stage
 
 REPO = Path(__file__).resolve().parents[2]
