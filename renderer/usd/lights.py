@@ -13,7 +13,8 @@
   world radius r keeps the power of the sphere it stands for, I = L * pi * r**2;
 * DistantLight: `radiance` = irradiance E on a surface facing it: L when normalized, else
   L * sizeFactor (pi sin^2(angle/2) per the UsdLux `normalize` documentation, 1 for angle 0);
-* DomeLight: L (multiplies the lat-long texture if any).
+* DomeLight: L (multiplies the lat-long texture if any; a mirroredBall, angular or cubeMapVerticalCross image
+  is resampled into one, `dome_formats.py`).
 
 A RectLight's ``inputs:texture:file`` multiplies L over the rect.  The schema puts "a texture file's min
 coordinates at (+X, +Y) and max coordinates at (-X, -Y)": the image's top-left corner at local (+X, +Y) and
@@ -34,6 +35,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdLux
 
 from ..description import CYLINDER, DISK, DISTANT, DOME, POINT, RECT, SPHERE, Light
+from .dome_formats import FORMATS as DOME_FORMATS
 from .ies import IesError, read_ies
 
 Warn = Callable[[str], None]
@@ -63,8 +65,9 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
                load_texture: Callable, warn: Warn) -> Optional[Light]:
     """A Light for a UsdLux light prim, or None (with a warning) when it cannot be used.
 
-    `load_texture(asset_path, owner, wrap_s, wrap_t, upside_down) -> index` loads a DomeLight's lat-long image
-    and a RectLight's image (upside down: its rows in reverse order)."""
+    `load_texture(asset_path, owner, wrap_s, wrap_t, upside_down[, layout]) -> index` loads a DomeLight's image
+    (one in another layout than lat-long, `dome_formats.FORMATS`, as the lat-long image resampled from it) and a
+    RectLight's image (upside down: its rows in reverse order)."""
     path, kind = str(prim.GetPath()), prim.GetTypeName()
     bad = _nonfinite_input(prim, time)
     if bad is not None:                   # (an infinite width: its samples' directions NaN, which Embree must not see)
@@ -93,8 +96,11 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
             fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
             if fmt in ('automatic', 'latlong'):
                 texture = load_texture(asset, path, 'repeat', 'clamp', False)
+            elif fmt in DOME_FORMATS:                     # (resampled into a lat-long image: `dome_formats.py`)
+                texture = load_texture(asset, path, 'repeat', 'clamp', False, fmt)
             else:
-                warn(f'{path}: dome texture format "{fmt}" is not supported; constant colour')
+                warn(f'{path}.inputs:texture:format: "{fmt}" is not a dome texture format; read as lat-long')
+                texture = load_texture(asset, path, 'repeat', 'clamp', False)
         return Light(path=path, type=DOME, matrix=frame, radiance=_rgb(base), texture=texture, gains=gains)
 
     frame, scale = rigid_frame(to_world)

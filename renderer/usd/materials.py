@@ -32,6 +32,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, BytePixels, Material, Texture
+from .dome_formats import relayout
 from .corner_primvars import DISPLAY_OPACITY, corner_colour_name, corner_opacity_name
 from .geometry import varying_display_color, varying_display_opacity
 from .primvar_values import flattened
@@ -489,21 +490,23 @@ class MaterialTable:
 
     def texture(self, asset: Sdf.AssetPath, colour_space: str, wrap_s: str, wrap_t: str,
                  scale: tuple, bias: tuple, owner: str, light: bool = False,
-                 transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0), layer: Sdf.Layer | None = None) -> int:
+                 transform: tuple = (1.0, 0.0, 0.0, 0.0, 1.0, 0.0), layer: Sdf.Layer | None = None,
+                 layout: str = 'latlong') -> int:
         """Index of a texture (file decoded once per colour space), -1 if it cannot be read.
 
         `light`: a light's radiance image (a DomeLight's lat-long texture), whose negative values are read
         as 0 with a warning, as pbrt-v4 reads them (`ClampZero`): light sampling draws directions by the
         image's luminance and never where it is negative, so only BSDF samples saw them and the estimators
         disagreed.  A material reading the same file keeps its values (normal maps are negative).  A path with
-        <UDIM>: `_udim`, its tiles found against `layer`, the layer that authored it."""
+        <UDIM>: `_udim`, its tiles found against `layer`, the layer that authored it.  `layout`: a dome image's
+        (`dome_formats.FORMATS`), kept as the lat-long image resampled from it (`dome_formats.relayout`)."""
         if UsdShade.UdimUtils.IsUdimIdentifier(asset.path):
             return self._udim(asset, layer, colour_space, scale, bias, owner, light, transform)
         resolved = asset.resolvedPath
         if not resolved:
             self.warn(f'{owner}: texture "{asset.path}" not found')
             return -1
-        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias, light, transform)
+        key = (resolved, colour_space, wrap_s, wrap_t, scale, bias, light, transform, layout)
         if key not in self._texture_index:
             pixels = self._load(resolved, colour_space, owner)
             self._texture_index[key] = -1
@@ -513,6 +516,8 @@ class MaterialTable:
                 self.warn(f'{owner}: texture {resolved} has {negative} texels with negative values; the light '
                           f'reads them as 0')
                 pixels = np.maximum(pixels, np.float32(0.0))
+            if pixels is not None and layout != 'latlong':
+                pixels = relayout(pixels, layout, f'{owner}.inputs:texture:format', self.warn)
             if pixels is not None:
                 self.textures.append(Texture(path=resolved, pixels=pixels, wrap_s=wrap_s,
                                              wrap_t=wrap_t, scale=scale, bias=bias, transform=transform))

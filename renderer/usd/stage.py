@@ -380,8 +380,10 @@ class _Reader:
                             self.backgrounds.add(light.path)
         return lights
 
-    def _light_texture(self, asset, owner: str, wrap_s: str, wrap_t: str, upside_down: bool) -> int:
-        index = self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True)
+    def _light_texture(self, asset, owner: str, wrap_s: str, wrap_t: str, upside_down: bool,
+                       layout: str = 'latlong') -> int:
+        index = self.materials.texture(asset, 'auto', wrap_s, wrap_t, (1.0,) * 4, (0.0,) * 4, owner, light=True,
+                                       layout=layout)
         if upside_down and index >= 0:                # (a copy whose rows are reversed: a mirrored light's)
             t = self.materials.textures[index]
             flipped = t.pixels.flipped() if isinstance(t.pixels, BytePixels) else np.ascontiguousarray(t.pixels[::-1])
