@@ -17,10 +17,15 @@ UsdLux names: +Y up, latitude 0 / longitude 0 along +Z, longitude pi/2 along +X,
   with +Y down; on the +Z row, +X to the left of the middle and -X to its right, as the lat-long image
   has them.
 
+A dome whose format is `automatic` (the default) is read as its file names it: an OpenEXR file whose header says
+it is a cube-face environment (`envmap`, OpenImageIO's `textureformat` "CubeFace Environment") as OpenEXR's own cube
+map (`Imf::CubeMap`: six faces +X, -X, +Y, -Y, +Z, -Z stacked top to bottom, in its frame, which is this one),
+every other file as lat-long.
+
 An image is read with its texels at their centres and interpolated bilinearly (a ball or angular image no
 nearer the rim of its disc than 1.5 texels, a cube's face within the face); each lat-long texel is the mean of
 2 x 2 lookups across it.  The lat-long image is 2N x N texels for a ball or angular image N texels
-across, 4F x 2F for a cross of faces F texels wide, at most `MAX_WIDTH` wide.
+across, 4F x 2F for a cube of faces F texels wide, at most `MAX_WIDTH` wide.
 """
 from __future__ import annotations
 
@@ -32,8 +37,10 @@ import numpy as np
 from ..description import linear_pixels
 
 FORMATS = ('mirroredBall', 'angular', 'cubeMapVerticalCross')
+EXR_CUBE = 'openexrCube'                 # what an `automatic` image's own header can name (`file_layout`)
+LAYOUTS = FORMATS + (EXR_CUBE,)
 MAX_WIDTH = 8192
-BALL, ANGULAR, CROSS = range(3)
+BALL, ANGULAR, CROSS, STRIP = range(4)
 # The cross's faces: (column, row) of the face, the dome-frame axis it faces, and the axes along its image's
 # right and down, as seen from inside the cube (the +Z face reads as the lat-long image's middle: +X to its left).
 _FACES = (
@@ -85,6 +92,9 @@ def _disc_point(dx, dy, dz, fmt):
 def _lookup(img, fmt, faces, d, out, weight):
     """Add weight x the image's value towards dome-frame direction d to out."""
     h, w = img.shape[0], img.shape[1]
+    if fmt == STRIP:
+        _strip_lookup(img, d, out, weight)
+        return
     if fmt != CROSS:
         a, b = _disc_point(d[0], d[1], d[2], fmt)
         limit = max(1.0 - 3.0 / min(h, w), 0.0)     # no nearer the rim than 1.5 texels: all four inside the disc
@@ -106,6 +116,35 @@ def _lookup(img, fmt, faces, d, out, weight):
     x0, y0 = int(round(faces[k, 0] * fw)), int(round(faces[k, 1] * fh))
     x1, y1 = int(round((faces[k, 0] + 1.0) * fw)), int(round((faces[k, 1] + 1.0) * fh))
     _bilinear(img, x0 + (s + 1.0) * 0.5 * (x1 - x0), y0 + (t + 1.0) * 0.5 * (y1 - y0), (x0, y0, x1, y1), out, weight)
+
+
+@nb.njit(cache=True, nogil=True, inline='always')
+def _strip_lookup(img, d, out, weight):
+    """Add weight x the value towards d of an OpenEXR cube map (`Imf::CubeMap`: faces +X, -X, +Y, -Y, +Z, -Z
+    stacked top to bottom, each F x F; a texel's centre at an integer position, the outer ones on the face's
+    edges)."""
+    f = img.shape[1]
+    ax, ay, az = abs(d[0]), abs(d[1]), abs(d[2])
+    if ax >= ay and ax >= az:              # the face and the position in it (`faceAndPixelPosition`)
+        face, m, p, q = (0 if d[0] > 0.0 else 1), ax, d[1], d[2]
+    elif ay >= az:
+        face, m, p, q = (2 if d[1] > 0.0 else 3), ay, d[0], d[2]
+    else:
+        face, m, p, q = (4 if d[2] > 0.0 else 5), az, d[0], d[1]
+    p = (p / m + 1.0) * 0.5 * (f - 1)
+    q = (q / m + 1.0) * 0.5 * (f - 1)
+    top, bottom = face * f, face * f + f - 1
+    if face == 0:                          # the position in the image (`pixelPosition`)
+        x, y = q, bottom - p
+    elif face == 1:
+        x, y = f - 1 - q, bottom - p
+    elif face == 3:
+        x, y = p, top + q
+    elif face == 4:
+        x, y = f - 1 - p, bottom - q
+    else:
+        x, y = p, bottom - q
+    _bilinear(img, x + 0.5, y + 0.5, (0, top, f, top + f), out, weight)
 
 
 @nb.njit(cache=True, nogil=True)
@@ -137,11 +176,27 @@ def _resample(img, fmt, faces, out):
                 out[y, x, k] = acc[k]
 
 
+def file_layout(resolved: str) -> str:
+    """The layout a dome image's own file names, for `inputs:texture:format` = automatic: `EXR_CUBE` where its
+    header says it is a cube-face environment (OpenEXR's `envmap` attribute, which OpenImageIO reads as
+    `textureformat`), else 'latlong'."""
+    import OpenImageIO as oiio
+    inp = oiio.ImageInput.open(resolved)
+    if inp is None:
+        oiio.geterror()                    # (a packaged or unreadable file: read as its pixels say)
+        return 'latlong'
+    kind = str(inp.spec().getattribute('textureformat') or '')
+    inp.close()
+    return EXR_CUBE if kind == 'CubeFace Environment' else 'latlong'
+
+
 def layout_problem(shape: tuple, fmt: str) -> str | None:
     """Why an image of `shape` (h, w, ...) cannot be read in layout `fmt`, or None."""
     h, w = shape[:2]
     if fmt == 'cubeMapVerticalCross' and w * 4 != h * 3:
         return f'a vertical cross is 3 faces wide and 4 tall; the image is {w} x {h}'
+    if fmt == EXR_CUBE and h != 6 * w:
+        return f'an OpenEXR cube map is 6 faces tall; the image is {w} x {h}'
     if min(h, w) < 2:
         return f'the image is {w} x {h}'
     return None
@@ -150,7 +205,8 @@ def layout_problem(shape: tuple, fmt: str) -> str | None:
 def latlong_size(shape: tuple, fmt: str) -> tuple:
     """(height, width) of the lat-long image resampled from an image of `shape` in layout `fmt`."""
     h, w = shape[:2]
-    width = 4 * max(1, round(w / 3)) if fmt == 'cubeMapVerticalCross' else 2 * max(h, w)
+    face = {'cubeMapVerticalCross': round(w / 3), EXR_CUBE: w}.get(fmt)
+    width = 4 * max(1, face) if face is not None else 2 * max(h, w)
     width = min(width, MAX_WIDTH)
     width += width % 2
     return width // 2, width
@@ -161,16 +217,17 @@ def relayout(pixels, fmt: str, where: str, warn) -> np.ndarray:
     them; the pixels as they are, read as lat-long with a warning naming `where`, if their size does not fit it."""
     problem = layout_problem(pixels.shape, fmt)
     if problem is not None:
-        warn(f'{where}: {fmt}, but {problem}; read as lat-long')
+        said = 'automatic, and the file says it is a cube map' if fmt == EXR_CUBE else fmt
+        warn(f'{where}: {said}, but {problem}; read as lat-long')
         return pixels
     return to_latlong(linear_pixels(pixels), fmt)
 
 
 def to_latlong(pixels: np.ndarray, fmt: str) -> np.ndarray:
     """The float32 lat-long image (h, w, c) of `pixels` (float32 (h, w, c), linear), an image in layout `fmt`
-    (one of FORMATS): see the module docstring."""
+    (one of LAYOUTS): see the module docstring."""
     img = np.ascontiguousarray(pixels, np.float32)
     height, width = latlong_size(img.shape, fmt)
     out = np.empty((height, width, img.shape[2]), np.float32)
-    _resample(img, FORMATS.index(fmt), _FACE_TABLE, out)
+    _resample(img, LAYOUTS.index(fmt), _FACE_TABLE, out)
     return out

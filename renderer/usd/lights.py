@@ -94,9 +94,9 @@ def read_light(prim: Usd.Prim, to_world: np.ndarray, time: Usd.TimeCode, up_axis
         asset = _asset_input(prim, 'inputs:texture:file', path, time, warn)
         if asset is not None:
             fmt = prim.GetAttribute('inputs:texture:format').Get(time) or 'automatic'
-            if fmt in ('automatic', 'latlong'):
+            if fmt == 'latlong':
                 texture = load_texture(asset, path, 'repeat', 'clamp', False)
-            elif fmt in DOME_FORMATS:                     # (resampled into a lat-long image: `dome_formats.py`)
+            elif fmt in DOME_FORMATS or fmt == 'automatic':   # (resampled into a lat-long image: `dome_formats.py`)
                 texture = load_texture(asset, path, 'repeat', 'clamp', False, fmt)
             else:
                 warn(f'{path}.inputs:texture:format: "{fmt}" is not a dome texture format; read as lat-long')

@@ -32,7 +32,7 @@ import numpy as np
 from pxr import Sdf, Usd, UsdGeom, UsdShade
 
 from ..description import LAMBERTIAN, MODEL_NAMES, PREVIEW_SURFACE, BytePixels, Material, Texture
-from .dome_formats import relayout
+from .dome_formats import file_layout, relayout
 from .corner_primvars import DISPLAY_OPACITY, corner_colour_name, corner_opacity_name
 from .geometry import varying_display_color, varying_display_opacity
 from .primvar_values import flattened
@@ -499,7 +499,8 @@ class MaterialTable:
         image's luminance and never where it is negative, so only BSDF samples saw them and the estimators
         disagreed.  A material reading the same file keeps its values (normal maps are negative).  A path with
         <UDIM>: `_udim`, its tiles found against `layer`, the layer that authored it.  `layout`: a dome image's
-        (`dome_formats.FORMATS`), kept as the lat-long image resampled from it (`dome_formats.relayout`)."""
+        (`dome_formats.FORMATS`, or 'automatic': the one its file names, `dome_formats.file_layout`), kept as the
+        lat-long image resampled from it (`dome_formats.relayout`)."""
         if UsdShade.UdimUtils.IsUdimIdentifier(asset.path):
             return self._udim(asset, layer, colour_space, scale, bias, owner, light, transform)
         resolved = asset.resolvedPath
@@ -516,6 +517,8 @@ class MaterialTable:
                 self.warn(f'{owner}: texture {resolved} has {negative} texels with negative values; the light '
                           f'reads them as 0')
                 pixels = np.maximum(pixels, np.float32(0.0))
+            if pixels is not None and layout == 'automatic':
+                layout = file_layout(resolved)
             if pixels is not None and layout != 'latlong':
                 pixels = relayout(pixels, layout, f'{owner}.inputs:texture:format', self.warn)
             if pixels is not None:

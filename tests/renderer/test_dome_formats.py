@@ -61,6 +61,22 @@ def cross_image(f: int, env=sky) -> np.ndarray:
     return img
 
 
+def exr_cube_image(f: int, env=sky) -> np.ndarray:
+    """OpenEXR's cube map (`Imf::CubeMap`): faces +X, -X, +Y, -Y, +Z, -Z stacked, face position (p, q) at integers
+    0..f-1 facing (1, u, v), (-1, u, v), (u, 1, v), (u, -1, v), (u, v, 1), (u, v, -1) with u, v = 2 p / (f - 1) - 1,
+    2 q / (f - 1) - 1, and placed at image column, row as `CubeMap::pixelPosition` places it."""
+    img = np.zeros((6 * f, f, 3), np.float32)
+    p, q = np.meshgrid(np.arange(f), np.arange(f))
+    u, v = p / (f - 1) * 2.0 - 1.0, q / (f - 1) * 2.0 - 1.0
+    one = np.ones_like(u)
+    for face, (d, col, row) in enumerate((((one, u, v), q, f - 1 - p), ((-one, u, v), f - 1 - q, f - 1 - p),
+                                          ((u, one, v), p, f - 1 - q), ((u, -one, v), p, q),
+                                          ((u, v, one), f - 1 - p, f - 1 - q), ((u, v, -one), p, f - 1 - q))):
+        d = np.stack(d, -1)
+        img[face * f + row, col] = env(d / np.linalg.norm(d, axis=-1, keepdims=True))
+    return img
+
+
 def latlong_image(h: int, w: int, env=sky) -> np.ndarray:
     """The OpenEXR lat-long image: latitude pi/2 at the top, longitude 0 (+Z) in the middle, pi/2 (+X) left of it."""
     lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
@@ -71,10 +87,11 @@ def latlong_image(h: int, w: int, env=sky) -> np.ndarray:
 
 
 IMAGES = {'mirroredBall': lambda: ball_image(512), 'angular': lambda: angular_image(512),
-          'cubeMapVerticalCross': lambda: cross_image(128)}
+          'cubeMapVerticalCross': lambda: cross_image(128), dome_formats.EXR_CUBE: lambda: exr_cube_image(128)}
 
 
-@pytest.mark.parametrize('fmt,tol', [('mirroredBall', 3e-4), ('angular', 1e-4), ('cubeMapVerticalCross', 2e-3)])
+@pytest.mark.parametrize('fmt,tol', [('mirroredBall', 3e-4), ('angular', 1e-4), ('cubeMapVerticalCross', 2e-3),
+                                     (dome_formats.EXR_CUBE, 1e-4)])
 def test_each_layout_resamples_to_the_latlong_image_of_its_environment(fmt, tol):
     """Away from the directions a layout squeezes into its rim (within 30 degrees of -Z for the ball and the
     angular map), every lat-long texel is the environment at its direction to bilinear accuracy; next to -Z, the
@@ -87,7 +104,7 @@ def test_each_layout_resamples_to_the_latlong_image_of_its_environment(fmt, tol)
     lat = (0.5 - (np.arange(h) + 0.5) / h) * np.pi
     lon = (0.5 - (np.arange(w) + 0.5) / w) * 2.0 * np.pi
     z = np.cos(lat)[:, None] * np.cos(lon)[None, :]
-    away = z > -np.cos(np.radians(30.0)) if fmt != 'cubeMapVerticalCross' else np.ones_like(z, bool)
+    away = z > -np.cos(np.radians(30.0)) if fmt in ('mirroredBall', 'angular') else np.ones_like(z, bool)
     assert err[away].max() < tol
     assert np.quantile(err, 0.99) < 2e-3
     assert err.max() < 0.1
@@ -95,7 +112,8 @@ def test_each_layout_resamples_to_the_latlong_image_of_its_environment(fmt, tol)
 
 @pytest.mark.parametrize('fmt,image', [('mirroredBall', lambda e: ball_image(257, e)),
                                        ('angular', lambda e: angular_image(257, e)),
-                                       ('cubeMapVerticalCross', lambda e: cross_image(64, e))])
+                                       ('cubeMapVerticalCross', lambda e: cross_image(64, e)),
+                                       (dome_formats.EXR_CUBE, lambda e: exr_cube_image(65, e))])
 def test_a_spot_at_plus_x_lands_at_longitude_pi_over_2(fmt, image):
     """A bright spot around +X (where each layout puts it: the ball at a = sqrt(1/2), the angular map at a = 1/2,
     the cross in the middle of its left face) is brightest in the lat-long image at latitude 0, longitude
@@ -109,10 +127,13 @@ def test_a_spot_at_plus_x_lands_at_longitude_pi_over_2(fmt, image):
     assert out.max() > 0.95
 
 
-def _exr(path, pixels):
+def _exr(path, pixels, **attributes):
     import OpenImageIO as oiio
     out = oiio.ImageOutput.create(str(path))
-    assert out.open(str(path), oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.FLOAT))
+    spec = oiio.ImageSpec(pixels.shape[1], pixels.shape[0], pixels.shape[2], oiio.FLOAT)
+    for name, value in attributes.items():
+        spec.attribute(name, value)
+    assert out.open(str(path), spec)
     assert out.write_image(np.ascontiguousarray(pixels, np.float32))
     out.close()
 
@@ -175,3 +196,25 @@ def test_an_image_that_does_not_fit_its_layout_is_read_as_latlong_with_a_warning
     warned = [w for w in desc.warnings if 'texture:format' in w]
     assert len(warned) == 1 and '"fisheye"' in warned[0] and '/World/Sky' in warned[0]
     np.testing.assert_array_equal(desc.textures[desc.lights[0].texture].pixels, latlong_image(32, 64))
+
+
+def test_an_automatic_dome_reads_an_openexr_cube_map_as_its_header_names_it(tmp_path):
+    """`automatic` (the format where none is authored) reads an OpenEXR file whose header says it is a cube-face
+    environment as OpenEXR's cube map; the same pixels in a file that does not say so are read as lat-long, as
+    they are; a file that says so but is not 6 faces tall is read as lat-long, warned."""
+    cube = exr_cube_image(64)
+    _exr(tmp_path / 'cube.exr', cube, textureformat='CubeFace Environment')
+    _exr(tmp_path / 'plain.exr', cube)
+    _exr(tmp_path / 'short.exr', cube[:320], textureformat='CubeFace Environment')
+    desc = read_stage(_dome_stage(tmp_path / 'cube.exr', None))
+    assert not desc.warnings, desc.warnings
+    got = desc.textures[desc.lights[0].texture].pixels
+    assert got.shape == (128, 256, 3)
+    assert np.abs(got - latlong_image(128, 256)).max() < 5e-3
+    desc = read_stage(_dome_stage(tmp_path / 'plain.exr', None))
+    assert not desc.warnings, desc.warnings
+    np.testing.assert_array_equal(desc.textures[desc.lights[0].texture].pixels, cube)
+    desc = read_stage(_dome_stage(tmp_path / 'short.exr', None))
+    warned = [w for w in desc.warnings if 'texture:format' in w]
+    assert len(warned) == 1 and 'cube map' in warned[0] and '/World/Sky' in warned[0] and '64 x 320' in warned[0]
+    np.testing.assert_array_equal(desc.textures[desc.lights[0].texture].pixels, cube[:320])
