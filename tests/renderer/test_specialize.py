@@ -158,6 +158,7 @@ def test_specialised_cook_kernel_gives_the_general_kernels_image(monkeypatch):
     assert spec.max() > 0.05 and np.array_equal(spec, general)
 
 
+@pytest.mark.slow            # (90 s of kernel compile on 2 cores: the default run keeps the cook kernel's check)
 def test_specialised_path_kernel_gives_the_general_kernels_image(monkeypatch):
     spec, general = _images(_rich_path_scene(), dict(spp=8, integrator='path', max_depth=4), monkeypatch)
     assert spec.max() > 0.05 and np.array_equal(spec, general)
