@@ -19,18 +19,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 from benchmarks.bench_many_lights import stage  # noqa: E402
-
-
-def _material(st, path, colour, roughness, metallic=0.0):
-    from pxr import Gf, Sdf, UsdShade
-    mat = UsdShade.Material.Define(st, path)
-    sh = UsdShade.Shader.Define(st, path + '/Surface')
-    sh.CreateIdAttr('UsdPreviewSurface')
-    sh.CreateInput('diffuseColor', Sdf.ValueTypeNames.Color3f).Set(Gf.Vec3f(*colour))
-    sh.CreateInput('roughness', Sdf.ValueTypeNames.Float).Set(roughness)
-    sh.CreateInput('metallic', Sdf.ValueTypeNames.Float).Set(metallic)
-    mat.CreateSurfaceOutput().ConnectToSource(sh.ConnectableAPI(), 'surface')
-    return mat
+from benchmarks.bench_rect_images import _material  # noqa: E402  (a UsdPreviewSurface material)
 
 
 def _quad(st, path, corners, mat):
